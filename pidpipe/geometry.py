@@ -1,0 +1,181 @@
+"""The hexagonal honeycomb cell: its bounding planes, its STL wall mesh, the coupon.
+
+Local frame at the cell centre, z across the panel (SPEC.md): the face sheets are the planes
+z = -h/2 (floor) and z = +h/2 (lid); the six side walls are at distance a = d/2 (the apothem,
+half the inscribed-circle diameter d) from the axis, with outward normals at 30, 90, ..., 330
+degrees, so that the vertices lie at (+-R, 0) with circumradius R = d / sqrt(3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class HexCell:
+    """A regular hexagonal cell.
+
+    Parameters
+    ----------
+    inscribed_diameter_m : float
+        Diameter of the circle inscribed in the hexagon (the honeycomb's cell size), m.
+    height_m : float
+        Core height (distance between the face sheets), m.
+    """
+
+    inscribed_diameter_m: float
+    height_m: float
+
+    def __post_init__(self) -> None:
+        for name in ("inscribed_diameter_m", "height_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"HexCell.{name} must be a positive finite number, got {value!r}")
+
+    @property
+    def apothem_m(self) -> float:
+        """Distance from the axis to each side wall, m."""
+        return 0.5 * self.inscribed_diameter_m
+
+    @property
+    def circumradius_m(self) -> float:
+        """Distance from the axis to each vertex, m (R = d / sqrt(3))."""
+        return self.inscribed_diameter_m / math.sqrt(3.0)
+
+    @property
+    def floor_z_m(self) -> float:
+        """z of the floor face sheet, m."""
+        return -0.5 * self.height_m
+
+    @property
+    def lid_z_m(self) -> float:
+        """z of the lid face sheet, m."""
+        return 0.5 * self.height_m
+
+    @property
+    def area_m2(self) -> float:
+        """Cross-section area of the hexagon, m^2 (2 sqrt(3) a^2)."""
+        return 2.0 * math.sqrt(3.0) * self.apothem_m**2
+
+    @property
+    def volume_m3(self) -> float:
+        """Volume of the closed cell, m^3."""
+        return self.area_m2 * self.height_m
+
+    def vertices_xy(self) -> np.ndarray:
+        """The six hexagon vertices, counter-clockwise from (R, 0); shape (6, 2), m."""
+        angles = np.deg2rad(np.arange(6) * 60.0)
+        return self.circumradius_m * np.column_stack([np.cos(angles), np.sin(angles)])
+
+    def side_normals(self) -> np.ndarray:
+        """Outward unit normals of the six side walls in the xy plane; shape (6, 2)."""
+        angles = np.deg2rad(30.0 + np.arange(6) * 60.0)
+        return np.column_stack([np.cos(angles), np.sin(angles)])
+
+    def planes(self) -> tuple[np.ndarray, np.ndarray]:
+        """All eight bounding planes as inward unit normals n and offsets c.
+
+        A point x lies inside the cell when ``n @ x + c >= 0`` for every plane, and
+        ``n @ x + c`` is then its distance to that plane.
+
+        Returns
+        -------
+        normals : ndarray, shape (8, 3)
+            Inward unit normals: six side walls, then the floor (+z) and the lid (-z).
+        offsets : ndarray, shape (8,)
+            Plane offsets, m.
+        """
+        side = self.side_normals()
+        normals = np.zeros((8, 3))
+        normals[:6, :2] = -side
+        normals[6] = (0.0, 0.0, 1.0)
+        normals[7] = (0.0, 0.0, -1.0)
+        offsets = np.full(8, self.apothem_m)
+        offsets[6] = -self.floor_z_m
+        offsets[7] = self.lid_z_m
+        return normals, offsets
+
+    def contains_spheres(self, centres_m: np.ndarray, radius_m: float, tol_m: float = 0.0) -> np.ndarray:
+        """Whether each sphere lies wholly inside the cell (within ``tol_m``); shape (n,)."""
+        normals, offsets = self.planes()
+        distances = np.asarray(centres_m, dtype=float) @ normals.T + offsets
+        return np.all(distances >= radius_m - tol_m, axis=1)
+
+
+def cell_wall_triangles(cell: HexCell, top_z_m: float | None = None,
+                        closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Triangulate the cell walls with inward-facing normals.
+
+    Parameters
+    ----------
+    cell : HexCell
+        The cell.
+    top_z_m : float, optional
+        z of the top of the side walls, m; defaults to the lid. A taller value gives the open
+        pouring cell used for packing.
+    closed : bool
+        Whether to add the lid at ``top_z_m``.
+
+    Returns
+    -------
+    points : ndarray, shape (n_points, 3)
+        Vertex coordinates, m.
+    triangles : ndarray, shape (n_triangles, 3)
+        Vertex indices, wound so that the right-hand normal points into the cell.
+    """
+    top = cell.lid_z_m if top_z_m is None else float(top_z_m)
+    bottom = cell.floor_z_m
+    ring = cell.vertices_xy()
+    points = np.vstack([
+        np.column_stack([ring, np.full(6, bottom)]),   # 0..5   bottom ring
+        np.column_stack([ring, np.full(6, top)]),      # 6..11  top ring
+        [[0.0, 0.0, bottom], [0.0, 0.0, top]],         # 12, 13 face centres
+    ])
+    triangles = []
+    for k in range(6):
+        b0, b1, t0, t1 = k, (k + 1) % 6, 6 + k, 6 + (k + 1) % 6
+        # side wall k: the ring runs counter-clockwise, so (b0, t0, b1) faces inward
+        triangles += [(b0, t0, b1), (b1, t0, t1)]
+        triangles.append((12, b0, b1))                  # floor, normal +z
+        if closed:
+            triangles.append((13, t1, t0))              # lid, normal -z
+    return points, np.asarray(triangles, dtype=np.int64)
+
+
+def triangle_normals(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unit right-hand normals of the triangles; shape (n_triangles, 3)."""
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
+
+
+def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None,
+                   closed: bool = True) -> Path:
+    """Write the cell walls as an ASCII STL file (coordinates in m) with meshio.
+
+    The file is written to a temporary name and renamed, so a reader never sees half a mesh.
+    """
+    import meshio
+
+    path = Path(path)
+    points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed)
+    tmp = path.with_name(path.name + ".part")
+    meshio.write(tmp, meshio.Mesh(points, [("triangle", triangles)]), file_format="stl",
+                 binary=False)
+    tmp.replace(path)
+    return path
+
+
+def coupon_cell_count(width_m: float, length_m: float, inscribed_diameter_m: float) -> int:
+    """Number of cells of a rectangular coupon, counted as the source study does.
+
+    The source counts ``floor(W/d) * floor(L/d)`` cells (100 mm x 100 mm with d = 4.76 mm
+    gives 21 x 21 = 441). A true hexagonal lattice (rows of pitch d spaced d*sqrt(3)/2 apart)
+    would hold about 15 % more whole cells (504); the config carries N explicitly so that
+    either convention can be used.
+    """
+    return math.floor(width_m / inscribed_diameter_m) * math.floor(length_m / inscribed_diameter_m)
