@@ -41,12 +41,15 @@ class EngineRun:
         Time steps run.
     screen_path : Path
         The kept screen output.
+    version : str
+        LIGGGHTS' version, as the run printed it.
     """
 
     wall_time_s: float
     loop_time_s: float
     steps: int
     screen_path: Path
+    version: str
 
 
 def find_liggghts() -> str:
@@ -62,12 +65,20 @@ def find_liggghts() -> str:
     return found
 
 
+_VERSION = re.compile(r"LIGGGHTS \(Version ([^)]*)\)")
+
+
 @lru_cache(maxsize=4)
 def liggghts_version(binary: str | None = None) -> str:
-    """LIGGGHTS' version line, e.g. ``LIGGGHTS-PUBLIC 3.8.0, compiled ...``."""
+    """LIGGGHTS' version line, e.g. ``LIGGGHTS-PUBLIC 3.8.0, compiled ...`` (runs ``liggghts -h``)."""
     binary = binary or find_liggghts()
     out = subprocess.run([binary, "-h"], capture_output=True, text=True, timeout=60, check=False).stdout
-    match = re.search(r"LIGGGHTS \(Version ([^)]*)\)", out)
+    return screen_version(out)
+
+
+def screen_version(screen_text: str) -> str:
+    """The version LIGGGHTS prints at the top of its screen output, or "unknown"."""
+    match = _VERSION.search(screen_text)
     return match.group(1) if match else "unknown"
 
 
@@ -118,7 +129,8 @@ def run_deck(deck_path: str | Path, case_label: str, timeout_s: float | None = N
         raise EngineError(f"LIGGGHTS failed for case {case_label}: {problem}; see {screen}")
     loops = _LOOP_TIME.findall(text)
     return EngineRun(wall_time_s=wall, loop_time_s=sum(float(t) for t, _, _ in loops),
-                     steps=sum(int(n) for _, _, n in loops), screen_path=screen)
+                     steps=sum(int(n) for _, _, n in loops), screen_path=screen,
+                     version=screen_version(text))
 
 
 def _failure(screen_text: str, returncode: int) -> str | None:

@@ -82,7 +82,7 @@ def read_ave_time(path: str | Path, n_columns: int) -> np.ndarray:
 
 
 def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float,
-                initial_energy_j: float, expected_cycles: int) -> CycleSeries:
+                expected_cycles: int) -> CycleSeries:
     """Per-cycle balance from the shake deck's two output files.
 
     Parameters
@@ -91,22 +91,22 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
         The ``fix ave/time`` outputs of the shake deck.
     period_s : float
         Period of the base motion, s.
-    initial_energy_j : float
-        Mechanical energy at the start of the first cycle, J (spheres at rest: potential only).
     expected_cycles : int
-        Cycles the deck ran; fewer rows means truncated output.
+        Cycles the deck ran; fewer rows means truncated output. The energy file has one row
+        more: the state at step 0.
     """
     power = read_ave_time(power_path, 3)
     energy = read_ave_time(energy_path, 6)
-    for name, table in (("power", power), ("energy", energy)):
-        if len(table) != expected_cycles:
-            raise ParseError(f"the {name} output has {len(table)} cycles, expected {expected_cycles} "
-                             f"(truncated run?): {power_path if name == 'power' else energy_path}")
-    if not np.array_equal(power[:, 0], energy[:, 0]):
+    for name, path, table, rows in (("power", power_path, power, expected_cycles),
+                                    ("energy", energy_path, energy, expected_cycles + 1)):
+        if len(table) != rows:
+            raise ParseError(f"{path} has {len(table)} rows, expected {rows} for {expected_cycles} "
+                             "cycles (truncated run?)")
+    if energy[0, 0] != 0 or not np.array_equal(power[:, 0], energy[1:, 0]):
         raise ParseError(f"the cycle ends of {power_path} and {energy_path} differ")
     work = power[:, 1] * period_s
     gross = power[:, 2] * period_s
-    mechanical = np.concatenate([[initial_energy_j], energy[:, 1:4].sum(axis=1)])
+    mechanical = energy[:, 1:4].sum(axis=1)
     return CycleSeries(wall_work_j=work, gross_work_j=gross, energy_j=mechanical,
-                       dissipated_j=work - np.diff(mechanical), lowest_z_m=energy[:, 4],
-                       highest_z_m=energy[:, 5])
+                       dissipated_j=work - np.diff(mechanical), lowest_z_m=energy[1:, 4],
+                       highest_z_m=energy[1:, 5])
