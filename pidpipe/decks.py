@@ -27,22 +27,31 @@ _FILENAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,127}$")
 _LABEL = re.compile(r"^[A-Za-z0-9_.]{1,128}$")
 
 
+def _given(value):
+    if isinstance(value, jinja2.Undefined):
+        raise ConfigError(f"deck template needs a value that was not given: {value._undefined_name}")
+    return value
+
+
 def _num(value) -> str:
+    _given(value)
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
         raise ConfigError(f"deck value {value!r} is not allowed: only finite numbers reach a LIGGGHTS deck")
     value = float(value)
     if not math.isfinite(value):
         raise ConfigError(f"deck value {value!r} is not allowed: it must be finite")
-    return format(value, ".17g")
+    return repr(value)
 
 
 def _int(value) -> str:
+    _given(value)
     if isinstance(value, bool) or not isinstance(value, (numbers.Integral, np.integer)) or value < 0:
         raise ConfigError(f"deck value {value!r} is not allowed: it must be a non-negative integer")
     return str(int(value))
 
 
 def _filename(value) -> str:
+    _given(value)
     if not isinstance(value, str) or not _FILENAME.match(value):
         raise ConfigError(f"deck file name {value!r} is not allowed: only letters, digits, _ . - "
                           "and no directories")
@@ -50,6 +59,7 @@ def _filename(value) -> str:
 
 
 def _label(value) -> str:
+    _given(value)
     if not isinstance(value, str) or not _LABEL.match(value):
         raise ConfigError(f"case label {value!r} is not allowed: only letters, digits, _ and .")
     return value

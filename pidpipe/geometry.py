@@ -133,16 +133,19 @@ def cell_wall_triangles(cell: HexCell, top_z_m: float | None = None,
     points = np.vstack([
         np.column_stack([ring, np.full(6, bottom)]),   # 0..5   bottom ring
         np.column_stack([ring, np.full(6, top)]),      # 6..11  top ring
-        [[0.0, 0.0, bottom], [0.0, 0.0, top]],         # 12, 13 face centres
     ])
     triangles = []
     for k in range(6):
         b0, b1, t0, t1 = k, (k + 1) % 6, 6 + k, 6 + (k + 1) % 6
         # side wall k: the ring runs counter-clockwise, so (b0, t0, b1) faces inward
         triangles += [(b0, t0, b1), (b1, t0, t1)]
-        triangles.append((12, b0, b1))                  # floor, normal +z
+    # Faces: a fan from corner 0, so that no mesh vertex lies inside a face (LIGGGHTS'
+    # contact with a vertex shared by many coplanar triangles loses energy: measured e = 0.60
+    # for a configured 0.70 on a centre vertex, against 0.69-0.70 on a face or an edge).
+    for k in range(1, 5):
+        triangles.append((0, k, k + 1))                 # floor, normal +z
         if closed:
-            triangles.append((13, t1, t0))              # lid, normal -z
+            triangles.append((6, 6 + k + 1, 6 + k))     # lid, normal -z
     return points, np.asarray(triangles, dtype=np.int64)
 
 
