@@ -28,6 +28,9 @@ from pidpipe.geometry import write_cell_stl
 POWER_FILE = "power.txt"
 ENERGY_FILE = "energy.txt"
 RECORD_VERSION = 1
+STEADY_DRIFT_LIMIT = 0.1
+"""Largest share of the measured dissipation that may come from a net loss of stored energy
+(compaction, a collapsing arch, the decay of the start-up) before a case counts as not steady."""
 
 
 def render_shake_deck(config: dict, case: CaseSpec, packing: Packing, workdir: Path) -> dict:
@@ -72,6 +75,28 @@ def containment_flags(config: dict, series: CycleSeries, amplitude_m: float) -> 
     return flags
 
 
+def steady_state_check(series: CycleSeries, transient_cycles: int) -> tuple[float, list[str]]:
+    """Whether the measured cycles are in steady state, by the energy stored at their ends.
+
+    In steady state the spheres' mechanical energy at the end of the measured window equals its
+    value at the start, so every joule dissipated came from the walls. The drift fraction is
+    the share of the measured dissipation that came instead from stored energy.
+
+    Returns
+    -------
+    drift_fraction : float
+        (E_start - E_end) / sum of measured E_d (NaN if nothing was dissipated).
+    flags : list of str
+        ``not_steady`` if ``|drift_fraction|`` exceeds :data:`STEADY_DRIFT_LIMIT`;
+        ``no_dissipation`` if the measured dissipation is not positive.
+    """
+    total = float(series.dissipated_j[transient_cycles:].sum())
+    if total <= 0.0:
+        return float("nan"), ["no_dissipation"]
+    drift = float(series.energy_j[transient_cycles] - series.energy_j[-1]) / total
+    return drift, (["not_steady"] if abs(drift) > STEADY_DRIFT_LIMIT else [])
+
+
 def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path) -> dict:
     """Shake one case in LIGGGHTS and return its record.
 
@@ -105,7 +130,8 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
     measured = series.dissipated_j[transient:]
     summary = summarise_cycles(measured, case.freq_hz, case.accel_g,
                                config["geometry"]["coupon_n_cells"], fidelity["sem_block_cycles"])
-    flags = containment_flags(config, series, plan["amplitude_m"])
+    drift, steady_flags = steady_state_check(series, transient)
+    flags = containment_flags(config, series, plan["amplitude_m"]) + steady_flags
     return {
         "record_version": RECORD_VERSION,
         "solver": "liggghts",
@@ -118,6 +144,8 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
         "status": "flagged" if flags else "ok",
         "flags": flags,
         **summary,
+        "energy_drift_fraction": drift,
+        "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()),
         "cycles": series.as_record(),
         "fidelity": {
             **plan["timestep"].as_record(),

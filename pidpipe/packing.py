@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from pidpipe.config import particle_properties, spheres_for_fill
+from pidpipe.damping import displacement_amplitude_m
 from pidpipe.decks import common_values, render, simulation_box
 from pidpipe.engine import run_deck
 from pidpipe.errors import PackingError, ParseError
@@ -27,6 +28,14 @@ from pidpipe.geometry import HexCell, write_cell_stl
 
 DEPOSITION_GAP_FRACTION = 0.02
 """Gap left above each deposited sphere, as a fraction of the radius (so nothing overlaps)."""
+TAP_FREQ_HZ = 100.0
+"""Frequency of the tapping that compacts a fresh pour, Hz."""
+TAP_ACCEL_G = 10.0
+"""Acceleration amplitude of the tapping, in g (the top of the reference grid)."""
+TAP_CYCLES = 20
+"""Cycles of tapping. Without it a deposited pile collapses during measured cycles: measured
+at 500 Hz, 5 g, 11 spheres, the potential energy fell by 8 cycles' worth of dissipation
+between cycles 35 and 42."""
 SETTLED_SPEED_M_S = 5e-3
 """A packing counts as settled when no sphere moves faster than this at the end, m/s."""
 
@@ -145,9 +154,15 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     settle_time = float(config["fidelity"]["settle_time_s"])
     steps = max(1, math.ceil(settle_time / dt))
     label = f"pour_r{fill_pct:g}pct_rep{replicate}"
+    travel = 2.0 * displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G)
     values = common_values(config, start, dt, "pour_cell.stl", label, "pack",
-                           simulation_box(cell, top_z, 0.0, radius), thermo_every=max(1, steps // 10))
-    values.update(settle_steps=steps, output_file="settled.dump")
+                           simulation_box(cell, top_z, travel, radius), thermo_every=max(1, steps // 10))
+    tap_period = 1.0 / TAP_FREQ_HZ
+    tap_steps_per_cycle = max(1, math.ceil(tap_period / dt))
+    values.update(settle_steps=steps, output_file="settled.dump",
+                  tap_amplitude_m=displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G),
+                  tap_period_s=tap_period, tap_steps=TAP_CYCLES * tap_steps_per_cycle)
+    values["timestep_s"] = tap_period / tap_steps_per_cycle
     deck = workdir / "pour.lmp"
     deck.write_text(render("pack.lmp.j2", values), encoding="utf-8")
     output = workdir / "settled.dump"
@@ -159,7 +174,7 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     return Packing(positions_m=centres.tolist(), radius_m=radius, n_spheres=n_spheres, seed=seed,
                    pile_height_m=pile, lid_height_m=cell.height_m,
                    max_speed_m_s=float(np.linalg.norm(velocities, axis=1).max()),
-                   settle_time_s=steps * dt, fill_pct=float(fill_pct))
+                   settle_time_s=steps * values["timestep_s"], fill_pct=float(fill_pct))
 
 
 def check_packing(packing: Packing, case_label: str) -> None:
