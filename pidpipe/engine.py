@@ -13,6 +13,7 @@ import re
 import shutil
 import signal
 import subprocess
+import tempfile
 import time
 from dataclasses import dataclass
 from functools import lru_cache
@@ -72,7 +73,9 @@ _VERSION = re.compile(r"LIGGGHTS \(Version ([^)]*)\)")
 def liggghts_version(binary: str | None = None) -> str:
     """LIGGGHTS' version line, e.g. ``LIGGGHTS-PUBLIC 3.8.0, compiled ...`` (runs ``liggghts -h``)."""
     binary = binary or find_liggghts()
-    out = subprocess.run([binary, "-h"], capture_output=True, text=True, timeout=60, check=False).stdout
+    with tempfile.TemporaryDirectory() as scratch:  # LIGGGHTS writes a log file where it runs
+        out = subprocess.run([binary, "-h"], capture_output=True, text=True, timeout=60,
+                             check=False, cwd=scratch).stdout
     return screen_version(out)
 
 
