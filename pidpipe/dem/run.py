@@ -1,0 +1,226 @@
+"""Running the NumPy DEM: stepping, per-cycle energy ledgers and the case record.
+
+The record of :func:`simulate_cell` has the shape of the LIGGGHTS path's
+(:func:`pidpipe.case.run_case`) so that the two solvers compare case by case: the summary of
+the measured cycles from :func:`pidpipe.damping.summarise_cycles` at the top level, per-cycle
+arrays (wall work, energy change, dissipation by the balance and term by term, by contact
+type) under ``cycles``, and the fidelity settings.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Callable
+
+import numpy as np
+
+from pidpipe.dem.contacts import (DISSIPATION_TERMS, Workspace, accumulated_dissipation,
+                                  reset_accumulators)
+from pidpipe.dem.energy import ledger_energy
+from pidpipe.dem.integrator import set_up, step
+from pidpipe.dem.scene import Scene
+from pidpipe.dem.state import State, initial_state
+from pidpipe.damping import summarise_cycles
+from pidpipe.errors import PackingError
+
+SOLVER_NAME = "numpy-dem"
+CONTACT_TYPES: tuple[str, ...] = ("pp", "pw")
+"""Contact types of the term-by-term dissipation: sphere-sphere and sphere-wall."""
+
+Observer = Callable[[State, Workspace], None]
+
+
+def start(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad_s=None,
+          overlap_tolerance_m: float | None = None) -> tuple[Scene, State, Workspace]:
+    """Initial state (at rest unless velocities are given) with its forces evaluated.
+
+    Parameters
+    ----------
+    scene : Scene
+        A scene with one acceleration per cell, or one for all.
+    positions_m : array_like, shape (n, 3) or (n_batch, n, 3)
+        Sphere centres in the cell frame, m.
+    velocities_m_s, angular_velocities_rad_s : array_like, optional
+        Initial velocities (m/s) and angular velocities (rad/s), same shape.
+    overlap_tolerance_m : float, optional
+        How far a sphere may initially reach into a wall, m; default 5 % of the radius.
+
+    Returns
+    -------
+    scene : Scene
+        The scene with ``accel_g`` broadcast to the batch size.
+    state : State
+    ws : Workspace
+
+    Raises
+    ------
+    PackingError
+        If a sphere lies outside the cell by more than the tolerance.
+    """
+    n_batch = scene.n_batch
+    state = initial_state(positions_m, velocities_m_s, angular_velocities_rad_s,
+                          n_batch=n_batch)
+    if state.n_batch != n_batch:
+        if n_batch != 1:
+            raise ValueError(f"{state.n_batch} packings for a scene of {n_batch} cells")
+        scene = dataclasses.replace(scene, accel_g=np.repeat(scene.accel_g, state.n_batch))
+    tol = 0.05 * scene.radius_m if overlap_tolerance_m is None else overlap_tolerance_m
+    centres = np.moveaxis(state.x, 0, 2).reshape(-1, 3)
+    inside = scene.cell.contains_spheres(centres, scene.radius_m, tol_m=tol)
+    if not np.all(inside):
+        bad = np.flatnonzero(~inside)
+        raise PackingError(
+            f"{bad.size} sphere(s) of radius {scene.radius_m:g} m lie outside the cell by more "
+            f"than {tol:g} m (first: flat index {bad[0]} at {centres[bad[0]]} m); "
+            "give positions of a packing settled in this cell")
+    ws = Workspace(scene, state)
+    set_up(scene, state, ws)
+    return scene, state, ws
+
+
+def advance(scene: Scene, state: State, ws: Workspace, n_steps: int,
+            observer: Observer | None = None) -> None:
+    """Take ``n_steps`` steps, calling ``observer(state, ws)`` after each one if given."""
+    for _ in range(int(n_steps)):
+        step(scene, state, ws)
+        if observer is not None:
+            observer(state, ws)
+
+
+def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict:
+    """Run whole excitation cycles and keep the energy ledger of each.
+
+    Returns
+    -------
+    dict of ndarray
+        Each of shape (n_batch, n_cycles), J, unless stated:
+
+        - ``wall_work_j``: work of the walls on the spheres
+        - ``energy_change_j``: change of K^ + P + U over the cycle (see :mod:`.energy`)
+        - ``dissipated_balance_j``: wall work minus energy change
+        - ``dissipated_terms_j``: the term-by-term total, the E_d of the cycle
+        - ``<term>_<type>_j`` for every term of :data:`DISSIPATION_TERMS` and contact type
+          ``pp`` (sphere-sphere) or ``pw`` (sphere-wall)
+        - ``kinetic_translational_j``, ``kinetic_rotational_j``, ``potential_j``,
+          ``elastic_j``: plain energies at the cycle boundaries, shape (n_batch, n_cycles + 1)
+        - ``centre_of_mass_z_m``: at the boundaries, shape (n_batch, n_cycles + 1), m
+    """
+    n_batch = state.n_batch
+    steps = scene.steps_per_cycle
+    work = np.zeros((n_batch, n_cycles))
+    terms = np.zeros((len(DISSIPATION_TERMS), len(CONTACT_TYPES), n_batch, n_cycles))
+    boundary = [ledger_energy(scene, state, ws)]
+    com = [state.x[2].mean(axis=1)]
+    for cycle in range(n_cycles):
+        reset_accumulators(ws)
+        for _ in range(steps):
+            step(scene, state, ws)
+        work[:, cycle] = ws.wall_work_acc
+        terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)
+        boundary.append(ledger_energy(scene, state, ws))
+        com.append(state.x[2].mean(axis=1))
+    stack = {key: np.stack([b[key] for b in boundary], axis=1) for key in boundary[0]}
+    change = np.diff(stack["ledger"], axis=1)
+    out = dict(wall_work_j=work, energy_change_j=change, dissipated_balance_j=work - change,
+               dissipated_terms_j=terms.sum(axis=(0, 1)))
+    for k, term in enumerate(DISSIPATION_TERMS):
+        for c, ctype in enumerate(CONTACT_TYPES):
+            out[f"{term}_{ctype}_j"] = terms[k, c]
+    for key in ("kinetic_translational", "kinetic_rotational", "potential", "elastic"):
+        out[f"{key}_j"] = stack[key]
+    out["centre_of_mass_z_m"] = np.stack(com, axis=1)
+    return out
+
+
+def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_cycles: int,
+                  block_cycles: int = 2, n_cells: int = 1, seed: int | None = None
+                  ) -> list[dict]:
+    """Shake one cell per packing and return one record per cell, as the LIGGGHTS path does.
+
+    Parameters
+    ----------
+    scene : Scene
+    positions_m : array_like, shape (n, 3) or (n_batch, n, 3)
+        Settled packing(s) in the cell frame, m; several packings run as one batch.
+    transient_cycles, measured_cycles : int
+        Cycles run and discarded, then cycles measured.
+    block_cycles : int
+        Cycles per block for the standard error of the mean.
+    n_cells : int
+        Cells of the coupon, for the coupon's C_eq.
+    seed : int, optional
+        The packing seed, recorded only (the DEM itself is deterministic).
+
+    Returns
+    -------
+    list of dict, one per cell of the batch
+        ``solver``, ``freq_hz``, ``accel_g``, ``n_spheres``; the keys of
+        :func:`pidpipe.damping.summarise_cycles` for the term-by-term E_d of the measured
+        cycles; ``balance`` (the same summary from the energy balance);
+        ``balance_mismatch_fraction`` (term-by-term minus balance, over the balance, summed over
+        the measured cycles); ``wall_work_cycle_mean_j``; ``dissipated_by_term_j`` (measured
+        mean per cycle of every term and contact type); ``cycles`` (every array of
+        :func:`run_cycles`, transient included, as lists); ``fidelity``; ``wall_time_s``.
+    """
+    if transient_cycles < 0 or measured_cycles < 1:
+        raise ValueError("need transient_cycles >= 0 and measured_cycles >= 1")
+    wall_start = time.perf_counter()
+    scene, state, ws = start(scene, positions_m)
+    per_cycle = run_cycles(scene, state, ws, transient_cycles + measured_cycles)
+    wall_time = time.perf_counter() - wall_start
+    measured = slice(transient_cycles, transient_cycles + measured_cycles)
+    fidelity = fidelity_record(scene, state, transient_cycles, measured_cycles, block_cycles,
+                               seed)
+    records = []
+    for b in range(state.n_batch):
+        cycles = {key: value[b] for key, value in per_cycle.items()}
+        accel = float(scene.accel_g[b])
+        terms = cycles["dissipated_terms_j"][measured]
+        balance = cycles["dissipated_balance_j"][measured]
+        by_term = {f"{term}_{ctype}_j": float(cycles[f"{term}_{ctype}_j"][measured].mean())
+                   for term in DISSIPATION_TERMS for ctype in CONTACT_TYPES}
+        records.append({
+            "solver": SOLVER_NAME,
+            "freq_hz": scene.freq_hz,
+            "accel_g": accel,
+            "n_spheres": state.n_spheres,
+            **_summarise(terms, scene.freq_hz, accel, n_cells, block_cycles),
+            "balance": _summarise(balance, scene.freq_hz, accel, n_cells, block_cycles),
+            "balance_mismatch_fraction": float((terms.sum() - balance.sum()) / balance.sum()),
+            "wall_work_cycle_mean_j": float(cycles["wall_work_j"][measured].mean()),
+            "dissipated_by_term_j": by_term,
+            "cycles": {key: value.tolist() for key, value in cycles.items()},
+            "fidelity": dict(fidelity),
+            "wall_time_s": wall_time,
+        })
+    return records
+
+
+def fidelity_record(scene: Scene, state: State, transient_cycles: int, measured_cycles: int,
+                    block_cycles: int, seed: int | None) -> dict:
+    """The settings a result depends on (the keys of the LIGGGHTS record's, plus the batch)."""
+    return dict(
+        solver=SOLVER_NAME,
+        timestep_s=scene.timestep_s,
+        steps_per_cycle=scene.steps_per_cycle,
+        rayleigh_time_s=scene.rayleigh_time_s,
+        rayleigh_fraction=scene.timestep_s / scene.rayleigh_time_s,
+        timestep_rayleigh_fraction_config=scene.settings.get("timestep_rayleigh_fraction"),
+        youngs_modulus_scale=scene.settings.get("youngs_modulus_scale", 1.0),
+        transient_cycles=int(transient_cycles),
+        measured_cycles=int(measured_cycles),
+        sem_block_cycles=int(block_cycles),
+        rotation=scene.rotation,
+        friction=scene.friction,
+        seed=seed,
+        n_spheres=state.n_spheres,
+        n_batch=state.n_batch,
+    )
+
+
+def _summarise(dissipated_j: np.ndarray, freq_hz: float, accel_g: float, n_cells: int,
+               block_cycles: int) -> dict:
+    """:func:`pidpipe.damping.summarise_cycles` of one cell's measured cycles."""
+    return summarise_cycles(np.asarray(dissipated_j, dtype=float), freq_hz, accel_g, n_cells,
+                            block_cycles)

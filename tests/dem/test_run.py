@@ -1,0 +1,59 @@
+"""Runs: determinism, batches equal to single cells, the case record, refusals."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pidpipe.dem import advance, simulate_cell, start
+from pidpipe.errors import PackingError
+from tests.dem.conftest import spec_scene
+
+
+def _short_run(positions, accel_g=5.0, steps=600):
+    scene, state, ws = start(spec_scene(freq_hz=1000.0, accel_g=accel_g), positions)
+    advance(scene, state, ws, steps)
+    return state
+
+
+def test_same_inputs_give_the_same_result(settled_11):
+    first, second = _short_run(settled_11), _short_run(settled_11)
+    for name in ("x", "v", "omega", "force", "shear"):
+        assert np.array_equal(getattr(first, name), getattr(second, name))
+
+
+def test_a_batch_of_cells_evolves_each_cell_as_if_alone(settled_11):
+    other = settled_11.copy()
+    other[:, :2] *= -1.0                                  # the packing turned by 180 degrees
+    batch = _short_run(np.stack([settled_11, other]), accel_g=[5.0, 10.0])
+    alone = [_short_run(settled_11, 5.0), _short_run(other, 10.0)]
+    for b, single in enumerate(alone):
+        np.testing.assert_allclose(batch.x[:, b], single.x[:, 0], rtol=0, atol=1e-15)
+        np.testing.assert_allclose(batch.v[:, b], single.v[:, 0], rtol=1e-9, atol=1e-15)
+
+
+def test_case_record_matches_the_liggghts_record_keys(settled_11):
+    scene = spec_scene(freq_hz=1000.0, accel_g=10.0)
+    (record,) = simulate_cell(scene, settled_11, transient_cycles=1, measured_cycles=2,
+                              block_cycles=1, n_cells=441, seed=7)
+    for key in ("solver", "freq_hz", "accel_g", "n_spheres", "ed_cycle_mean_j",
+                "ed_cycle_sem_j", "ceq_cell_ns_m", "ceq_coupon_ns_m", "cycles", "fidelity",
+                "wall_time_s", "wall_work_cycle_mean_j"):
+        assert key in record
+    assert record["solver"] == "numpy-dem" and record["n_spheres"] == 11
+    assert record["fidelity"]["steps_per_cycle"] * record["fidelity"]["timestep_s"] == \
+        pytest.approx(1e-3)
+    assert record["fidelity"]["rayleigh_fraction"] <= 0.2 and record["fidelity"]["seed"] == 7
+    assert len(record["cycles"]["wall_work_j"]) == 3
+    assert record["ceq_coupon_ns_m"] == pytest.approx(441 * record["ceq_cell_ns_m"])
+    assert abs(record["balance_mismatch_fraction"]) < 0.005
+    json.dumps(record)                                     # plain JSON types only
+
+
+def test_spheres_outside_the_cell_are_refused(settled_11):
+    bad = settled_11.copy()
+    bad[0, 2] = -20e-3
+    with pytest.raises(PackingError, match="outside the cell"):
+        start(spec_scene(), bad)
