@@ -70,6 +70,8 @@ class Workspace:
         self.en = np.zeros(shape3)
         self.en[:, :, :, n:] = self.normals.T[:, None, None, :]   # walls never rotate
         self.pair_diff = np.zeros((3, n_batch, n, n))
+        self.pair_dist = np.zeros((n_batch, n, n))
+        self.wall_reach = np.zeros((n_batch, 1, N_WALLS))
         for name in ("vr", "t3", "t3b", "ft", "tangential_prev"):
             setattr(self, name, np.zeros(shape3))
         for name in ("delta", "vn", "cr", "sq", "q", "kn", "gn", "fn", "s1", "s2", "s3",
@@ -88,14 +90,16 @@ class Workspace:
         self.wall_force_z_prev = np.zeros(n_batch)
         self.kick = np.zeros((3, n_batch, n))         # integrator scratch
         self.eye = np.eye(n)
-        # per-column contact coefficients: n spheres, then the 8 walls
+        # per-contact coefficients (columns: n spheres, then the 8 walls), broadcast to the
+        # full shape once: same-shape contiguous operands are NumPy's fastest path
         def per_column(attr):
-            return np.concatenate([np.full(n, getattr(scene.pp, attr)),
-                                   np.full(N_WALLS, getattr(scene.pw, attr))])
+            row = np.concatenate([np.full(n, getattr(scene.pp, attr)),
+                                  np.full(N_WALLS, getattr(scene.pw, attr))])
+            return np.ascontiguousarray(np.broadcast_to(row, shape1))
         self.a_n, self.g_n, self.a_t, self.mu = (per_column(a) for a in
                                                  ("a_n", "g_n", "a_t", "friction"))
         g_t = per_column("g_t")
-        self.gt_over_gn = np.divide(g_t, self.g_n, out=np.zeros(m), where=self.g_n != 0)
+        self.gt_over_gn = np.divide(g_t, self.g_n, out=np.zeros(shape1), where=self.g_n != 0)
         self.r_minus_offset = scene.radius_m - self.offsets          # (8,)
         self.normal_z = self.normals[:, 2].copy()                     # (8,)
         # broadcast views of the state, bound once (the state arrays are updated in place)
@@ -132,7 +136,7 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
 
     # --- geometry: normals and overlaps ---------------------------------------------------
     np.subtract(ws.x_i, ws.x_j, out=ws.pair_diff)
-    r_pp = ws.s2[..., :n]
+    r_pp = ws.pair_dist
     np.einsum(_DOT, ws.pair_diff, ws.pair_diff, out=r_pp)
     r_pp += ws.eye                                    # the diagonal: r = 1 m, never a contact
     np.sqrt(r_pp, out=r_pp)
@@ -140,8 +144,9 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     np.divide(ws.pair_diff, r_pp, out=en[..., :n])
     np.matmul(ws.normals, state.x.reshape(3, -1), out=ws.wall_dist)
     dist = ws.wall_dist.reshape(N_WALLS, state.n_batch, n).transpose(1, 2, 0)
-    np.subtract(ws.r_minus_offset, dist, out=delta[..., n:])     # R - (n.x + c) ...
-    delta[..., n:] += wall_z_m[:, None, None] * ws.normal_z       # ... + n_z z_w
+    np.multiply(wall_z_m[:, None, None], ws.normal_z, out=ws.wall_reach)
+    ws.wall_reach += ws.r_minus_offset                            # R - c + n_z z_w
+    np.subtract(ws.wall_reach, dist, out=delta[..., n:])          # ... - n.x
     np.maximum(delta, 0.0, out=delta)
     np.greater(delta, 0.0, out=ws.contact)
 
@@ -150,9 +155,10 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     ws.vcols[2, :, n:] = wall_v_m_s[:, None]
     np.subtract(ws.v_i, ws.v_cols, out=vr)
     np.einsum(_DOT, vr, en, out=ws.vn)
-    np.multiply(en, ws.vn, out=t3)
-    vr -= t3                                          # vr is now v_t
-    if scene.rotation:
+    if scene.friction:
+        np.multiply(en, ws.vn, out=t3)
+        vr -= t3                                      # vr is now v_t
+    if scene.friction and scene.rotation:
         np.multiply(delta, -0.5, out=ws.cr)
         ws.cr += radius
         ws.ocols[:, :, :n] = state.omega
@@ -186,12 +192,17 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     state.force[2] -= scene.mass_kg * scene.gravity_m_s2
 
     # --- energy terms of this step --------------------------------------------------------
+    # sphere-sphere forces cancel in the sum over spheres: what is left is the walls' force
     ws.wall_force_z_prev, ws.wall_force_z = ws.wall_force_z, ws.wall_force_z_prev
-    ws.ft[2, :, :, n:].sum(axis=(1, 2), out=ws.wall_force_z)
+    state.force[2].sum(axis=1, out=ws.wall_force_z)
+    ws.wall_force_z += n * scene.mass_kg * scene.gravity_m_s2
     np.add(ws.wall_force_z_prev, ws.wall_force_z, out=ws.step_wall_work)
     ws.step_wall_work *= wall_v_m_s * (0.5 * dt)
     ws.wall_work_acc += ws.step_wall_work
-    ws.terms_acc += terms
+    if scene.friction:
+        ws.terms_acc += terms
+    else:
+        ws.terms_acc[0] += terms[0]
 
 
 def _tangential(scene: Scene, state: State, ws: Workspace, update_history: bool) -> None:

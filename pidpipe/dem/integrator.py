@@ -20,7 +20,8 @@ from pidpipe.dem.walls import wall_motion
 
 def set_up(scene: Scene, state: State, ws: Workspace) -> None:
     """Evaluate the forces of the initial state (LIGGGHTS' set-up: no history update)."""
-    z, vz = wall_motion(state.step * scene.timestep_s, scene.amplitude_m, scene.omega_rad_s)
+    ws.amplitude_m, ws.omega_rad_s = scene.amplitude_m, scene.omega_rad_s
+    z, vz = wall_motion(state.step * scene.timestep_s, ws.amplitude_m, ws.omega_rad_s)
     compute_forces(scene, state, ws, z, vz, update_history=False)
     clear_step_terms(ws)
 
@@ -36,7 +37,7 @@ def step(scene: Scene, state: State, ws: Workspace) -> None:
     if scene.rotation:
         kick_force(state.torque, 0.5 * dt / scene.inertia_kg_m2, state.omega, kick)
     state.step += 1
-    z, vz = wall_motion(state.step * dt, scene.amplitude_m, scene.omega_rad_s)
+    z, vz = wall_motion(state.step * dt, ws.amplitude_m, ws.omega_rad_s)
     compute_forces(scene, state, ws, z, vz, update_history=True)
     kick_force(state.force, half_over_m, v, kick)
     if scene.rotation:
