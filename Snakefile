@@ -1,0 +1,60 @@
+# pidpipe campaign: pour packings -> check them all -> shake every case in LIGGGHTS ->
+# C_eq table -> surrogate (+ cross-validation) -> SLSQP optimum per environment -> figures.
+#
+#   snakemake --cores 2                                  # the campaign of config.yaml
+#   snakemake --cores 2 --configfile .test/config.yaml   # the reduced CI campaign
+#   snakemake table | surrogate | optimum | figures      # stop after a stage
+#   snakemake --report report.html                       # figures and tables with captions
+#
+# The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
+# an invalid value stops the run with one message naming the key. Rules live in
+# workflow/rules/<stage>.smk, their scripts in workflow/scripts/ (each calls one function of
+# pidpipe.campaign), the grid and the get_* helpers in workflow/rules/common.smk.
+#
+# Failure policy
+# - A case whose LIGGGHTS run fails (EngineError/ParseError) does not stop the others: its job
+#   logs the message (naming the case, LIGGGHTS' screen file and the job's log), writes
+#   results/cases/<case>.json with status "failed", and succeeds. The C_eq table keeps the case
+#   as a "failed" row with no values; the surrogate never interpolates over it: it refuses the
+#   hole and names it. To retry, delete the case's record and run again.
+# - A misfit or unsettled packing (PackingError) stops the run before any shaking run:
+#   check_packings lists every refused packing and its cases in one message. A missing
+#   LIGGGHTS, a bad config and every later stage's error stop the run with their message.
+# - With --keep-going every independent job still runs after a failure.
+#
+# Resume: outputs are written atomically and each rule's params hold only the config values it
+# depends on, so a finished case is recomputed only when its own inputs change, and an
+# interrupted run resumes where it stopped.
+
+import sys
+
+from pidpipe.campaign import workflow_config
+from pidpipe.errors import ConfigError
+
+
+configfile: "config.yaml"
+
+
+try:
+    _validated = workflow_config(config)
+except ConfigError as error:
+    sys.exit(f"pidpipe: invalid config: {error}")
+config.clear()
+config.update(_validated)
+
+
+report: "workflow/report/workflow.rst"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/packing.smk"
+include: "workflow/rules/simulate.smk"
+include: "workflow/rules/table.smk"
+include: "workflow/rules/surrogate.smk"
+include: "workflow/rules/optimise.smk"
+include: "workflow/rules/figures.smk"
+
+
+rule all:
+    input:
+        get_final_targets(),

@@ -1,0 +1,86 @@
+# The grid, wildcard constraints and the get_* helpers that the rules use. No rule lives here.
+
+from pidpipe import campaign
+
+
+CASES = campaign.campaign_cases(config)
+PACKING_IDS = sorted({case.packing_id for case in CASES})
+
+# Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
+CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
+PACKING_PATTERN = "r{fill}pct_rep{replicate}"
+
+
+wildcard_constraints:
+    freq=campaign.WILDCARD_NUMBER,
+    accel=campaign.WILDCARD_NUMBER,
+    fill=campaign.WILDCARD_NUMBER,
+    replicate=campaign.WILDCARD_REPLICATE,
+
+
+def get_case_ids():
+    """Every case id of the campaign."""
+    return [case.case_id for case in CASES]
+
+
+def get_case_records():
+    """The record of every case."""
+    return [f"results/cases/{case_id}.json" for case_id in get_case_ids()]
+
+
+def get_packings():
+    """The packing of every fill level and replicate."""
+    return [f"results/packings/{packing_id}.json" for packing_id in PACKING_IDS]
+
+
+def get_case_id(wildcards):
+    """The case id of a simulate_case job."""
+    return CASE_PATTERN.format(**wildcards)
+
+
+def get_packing_config():
+    """The config values a packing depends on."""
+    return campaign.stage_config(config, "packing")
+
+
+def get_case_config():
+    """The config values a case depends on (its packing is an input)."""
+    return campaign.stage_config(config, "case")
+
+
+def get_surrogate_method():
+    return config["surrogate"]["method"]
+
+
+def get_ceq_table():
+    """The table the surrogate is fitted to: optimisation.external_ceq_table, else the campaign's."""
+    return config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv"
+
+
+def get_environments():
+    return campaign.environment_params(config)
+
+
+def get_budget():
+    return campaign.budget_params(config)
+
+
+def get_optimisation_option(key):
+    return config["optimisation"][key]
+
+
+def get_final_targets():
+    """What `snakemake` builds: the campaign's case records and table (unless an external table is
+    used), then the surrogate, its cross-validation, the optimum and the figures. The records
+    are targets themselves, so that a deleted record is recomputed."""
+    targets = [
+        "results/surrogate.json",
+        "results/surrogate_cv.csv",
+        "results/optimum.csv",
+        "results/figures/ceq_freq_fill.png",
+        "results/figures/ceq_freq_accel.png",
+        "results/figures/convergence.png",
+    ]
+    if config["optimisation"]["external_ceq_table"] is None:
+        targets = get_case_records() + ["results/ceq_table.csv"] + targets
+    return targets

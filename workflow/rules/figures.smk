@@ -1,0 +1,50 @@
+# Stage 6: figures of the surrogate and of the optimisation (PNG for the report, and PDF).
+
+
+rule plot_surrogate:
+    input:
+        surrogate="results/surrogate.json",
+    output:
+        freq_fill=report(
+            "results/figures/ceq_freq_fill.png",
+            caption="../report/ceq_freq_fill.rst",
+            category="2. Surrogate",
+        ),
+        freq_fill_pdf="results/figures/ceq_freq_fill.pdf",
+        freq_accel=report(
+            "results/figures/ceq_freq_accel.png",
+            caption="../report/ceq_freq_accel.rst",
+            category="2. Surrogate",
+        ),
+        freq_accel_pdf="results/figures/ceq_freq_accel.pdf",
+    params:
+        freq_fill_stem="results/figures/ceq_freq_fill",
+        freq_accel_stem="results/figures/ceq_freq_accel",
+    log:
+        "logs/plot_surrogate.log",
+    script:
+        "../scripts/plot_surrogate.py"
+
+
+rule plot_convergence:
+    input:
+        results="results/optimum.json",
+    output:
+        png=report(
+            "results/figures/convergence.png",
+            caption="../report/convergence.rst",
+            category="3. Optimisation",
+        ),
+        pdf="results/figures/convergence.pdf",
+    params:
+        stem="results/figures/convergence",
+    log:
+        "logs/plot_convergence.log",
+    script:
+        "../scripts/plot_convergence.py"
+
+
+rule figures:
+    input:
+        rules.plot_surrogate.output,
+        rules.plot_convergence.output,

@@ -1,0 +1,30 @@
+# Stage 5: multi-start SLSQP of fill and filled cells per operating environment.
+
+
+rule optimise_environments:
+    input:
+        surrogate="results/surrogate.json",
+    output:
+        results=report(
+            "results/optimum.csv",
+            caption="../report/optimum.rst",
+            category="3. Optimisation",
+        ),
+        history="results/optimum_history.csv",
+        json="results/optimum.json",
+    params:
+        environments=get_environments(),
+        budget=get_budget(),
+        starts=get_optimisation_option("starts"),
+        seed=get_optimisation_option("seed"),
+    log:
+        "logs/optimise_environments.log",
+    benchmark:
+        "results/benchmarks/optimise_environments.tsv"
+    script:
+        "../scripts/optimise_environments.py"
+
+
+rule optimum:
+    input:
+        "results/optimum.csv",

@@ -1,0 +1,41 @@
+# Stage 1: pour and settle one packing per fill level and replicate, then check them all.
+
+
+rule pour_packing:
+    output:
+        "results/packings/r{fill}pct_rep{replicate}.json",
+    params:
+        config=get_packing_config(),
+        workdir="results/work/packings/r{fill}pct_rep{replicate}",
+    log:
+        "logs/pour_packing/r{fill}pct_rep{replicate}.log",
+    benchmark:
+        "results/benchmarks/pour_packing/r{fill}pct_rep{replicate}.tsv"
+    threads: 1
+    script:
+        "../scripts/pour_packing.py"
+
+
+# Every packing must fit under the lid before any case is shaken; misfits are listed together.
+# update(): a failed check keeps the previous report, and cases take it as ancient(), so adding
+# a fill level (or a failed check) never reruns the cases already finished.
+rule check_packings:
+    input:
+        packings=get_packings(),
+    output:
+        report(
+            update("results/packings/check.tsv"),
+            caption="../report/packings.rst",
+            category="1. DEM campaign",
+        ),
+    params:
+        case_ids=get_case_ids(),
+    log:
+        "logs/check_packings.log",
+    script:
+        "../scripts/check_packings.py"
+
+
+rule packings:
+    input:
+        "results/packings/check.tsv",

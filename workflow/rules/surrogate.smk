@@ -1,0 +1,38 @@
+# Stage 4: the surrogate of C_eq(f, G, r) and the cross-validation of every method.
+# The table is optimisation.external_ceq_table when set, else the campaign's.
+
+
+rule fit_surrogate:
+    input:
+        table=get_ceq_table(),
+    output:
+        surrogate="results/surrogate.json",
+    params:
+        method=get_surrogate_method(),
+    log:
+        "logs/fit_surrogate.log",
+    script:
+        "../scripts/fit_surrogate.py"
+
+
+rule cross_validate_surrogate:
+    input:
+        table=get_ceq_table(),
+    output:
+        cv=report(
+            "results/surrogate_cv.csv",
+            caption="../report/surrogate_cv.rst",
+            category="2. Surrogate",
+        ),
+    log:
+        "logs/cross_validate_surrogate.log",
+    benchmark:
+        "results/benchmarks/cross_validate_surrogate.tsv"
+    script:
+        "../scripts/cross_validate_surrogate.py"
+
+
+rule surrogate:
+    input:
+        "results/surrogate.json",
+        "results/surrogate_cv.csv",

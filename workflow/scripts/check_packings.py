@@ -1,0 +1,11 @@
+"""Rule check_packings: refuse every packing that does not fit (pidpipe.campaign.check_packings)."""
+
+from pidpipe.campaign import check_packings, run_step
+
+run_step(
+    check_packings,
+    snakemake.log[0],
+    packing_paths=list(snakemake.input.packings),
+    case_ids=list(snakemake.params.case_ids),
+    report_path=snakemake.output[0],
+)

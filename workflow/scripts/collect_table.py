@@ -1,0 +1,11 @@
+"""Rule collect_table: the C_eq table from the case records (pidpipe.campaign.collect_table)."""
+
+from pidpipe.campaign import collect_table, run_step
+
+run_step(
+    collect_table,
+    snakemake.log[0],
+    record_paths=list(snakemake.input.records),
+    table_path=snakemake.output.table,
+    case_ids=list(snakemake.params.case_ids),
+)

@@ -1,0 +1,11 @@
+"""Rule fit_surrogate: fit and save the surrogate (pidpipe.campaign.fit_table_surrogate)."""
+
+from pidpipe.campaign import fit_table_surrogate, run_step
+
+run_step(
+    fit_table_surrogate,
+    snakemake.log[0],
+    table_path=snakemake.input.table,
+    method=snakemake.params.method,
+    surrogate_path=snakemake.output.surrogate,
+)

@@ -1,0 +1,16 @@
+"""Rule optimise_environments: SLSQP per environment (pidpipe.campaign.optimise_surrogate)."""
+
+from pidpipe.campaign import optimise_surrogate, run_step
+
+run_step(
+    optimise_surrogate,
+    snakemake.log[0],
+    surrogate_path=snakemake.input.surrogate,
+    environments=snakemake.params.environments,
+    budget=snakemake.params.budget,
+    starts=snakemake.params.starts,
+    seed=snakemake.params.seed,
+    results_csv=snakemake.output.results,
+    history_csv=snakemake.output.history,
+    results_json=snakemake.output.json,
+)

@@ -1,0 +1,14 @@
+"""Rule simulate_case: shake one case in LIGGGHTS (pidpipe.campaign.simulate_case)."""
+
+from pidpipe.campaign import run_step, simulate_case
+
+run_step(
+    simulate_case,
+    snakemake.log[0],
+    config=snakemake.params.config,
+    case_id=snakemake.params.case_id,
+    packing_path=snakemake.input.packing,
+    record_path=snakemake.output.record,
+    workdir=snakemake.params.workdir,
+    log_path=snakemake.log[0],
+)
