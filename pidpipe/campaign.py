@@ -644,23 +644,38 @@ def read_results_json(path: str | os.PathLike) -> list:
     return results
 
 
-def plot_surrogate_maps(surrogate_path: str, freq_fill_stem: str, freq_accel_stem: str) -> None:
-    """The C_eq(f, r) and C_eq(f, G) maps of a saved surrogate (PNG and PDF)."""
+def plot_surrogate_maps(surrogate_path: str, freq_fill_png: str, freq_accel_png: str) -> None:
+    """The C_eq(f, r) and C_eq(f, G) maps of a saved surrogate, each as PNG and PDF.
+
+    Parameters
+    ----------
+    surrogate_path : path
+    freq_fill_png, freq_accel_png : path
+        The PNG files; the PDF goes next to each, with the same stem.
+    """
     from pidpipe.figures import plot_ceq_freq_accel, plot_ceq_freq_fill
     from pidpipe.surrogate import load_surrogate
 
     surrogate = load_surrogate(surrogate_path)
-    plot_ceq_freq_fill(surrogate, stem=freq_fill_stem)
-    plot_ceq_freq_accel(surrogate, stem=freq_accel_stem)
-    logger.info("surrogate maps: %s.{png,pdf}, %s.{png,pdf}", freq_fill_stem, freq_accel_stem)
+    plot_ceq_freq_fill(surrogate, stem=Path(freq_fill_png).with_suffix(""))
+    plot_ceq_freq_accel(surrogate, stem=Path(freq_accel_png).with_suffix(""))
+    logger.info("surrogate maps: %s, %s (and PDF)", freq_fill_png, freq_accel_png)
 
 
-def plot_optimisation_convergence(results_json: str, stem: str) -> None:
-    """Objective against SLSQP iteration of every start, per environment (PNG and PDF)."""
+def plot_optimisation_convergence(results_json: str, png: str) -> None:
+    """Objective against SLSQP iteration of every start, per environment, as PNG and PDF.
+
+    Parameters
+    ----------
+    results_json : path
+        Written by :func:`optimise_surrogate`.
+    png : path
+        The PNG file; the PDF goes next to it, with the same stem.
+    """
     from pidpipe.figures import plot_convergence
 
-    plot_convergence(read_results_json(results_json), stem=stem)
-    logger.info("convergence figure: %s.{png,pdf}", stem)
+    plot_convergence(read_results_json(results_json), stem=Path(png).with_suffix(""))
+    logger.info("convergence figure: %s (and PDF)", png)
 
 
 __all__ = [

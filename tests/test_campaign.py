@@ -357,6 +357,6 @@ def test_results_json_reads_back_and_plots(tmp_path):
     assert back[0].design == results[0].design
     assert back[0].optimum == results[0].optimum
     assert [s.history_ns_m for s in back[0].starts] == [s.history_ns_m for s in results[0].starts]
-    stem = tmp_path / "convergence"
-    campaign.plot_optimisation_convergence(str(path), str(stem))
+    campaign.plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
     assert (tmp_path / "convergence.png").stat().st_size > 1000
+    assert (tmp_path / "convergence.pdf").stat().st_size > 1000

@@ -17,9 +17,6 @@ rule plot_surrogate:
             category="2. Surrogate",
         ),
         freq_accel_pdf="results/figures/ceq_freq_accel.pdf",
-    params:
-        freq_fill_stem="results/figures/ceq_freq_fill",
-        freq_accel_stem="results/figures/ceq_freq_accel",
     log:
         "logs/plot_surrogate.log",
     script:
@@ -36,8 +33,6 @@ rule plot_convergence:
             category="3. Optimisation",
         ),
         pdf="results/figures/convergence.pdf",
-    params:
-        stem="results/figures/convergence",
     log:
         "logs/plot_convergence.log",
     script:

@@ -6,5 +6,5 @@ run_step(
     plot_optimisation_convergence,
     snakemake.log[0],
     results_json=snakemake.input.results,
-    stem=snakemake.params.stem,
+    png=snakemake.output.png,
 )

@@ -6,6 +6,6 @@ run_step(
     plot_surrogate_maps,
     snakemake.log[0],
     surrogate_path=snakemake.input.surrogate,
-    freq_fill_stem=snakemake.params.freq_fill_stem,
-    freq_accel_stem=snakemake.params.freq_accel_stem,
+    freq_fill_png=snakemake.output.freq_fill,
+    freq_accel_png=snakemake.output.freq_accel,
 )
