@@ -12,8 +12,8 @@
 # pidpipe.campaign), the grid and the get_* helpers in workflow/rules/common.smk.
 #
 # Failure policy
-# - A case whose LIGGGHTS run fails (EngineError/ParseError) does not stop the others: its job
-#   logs the message (naming the case, LIGGGHTS' screen file and the job's log), writes
+# - A case whose LIGGGHTS run fails (EngineError/ParseError) is run once more (a rare MPI_ABORT
+#   does not reproduce); if it fails again it does not stop the others: its job logs the message (naming the case, LIGGGHTS' screen file and the job's log), writes
 #   results/cases/<case>.json with status "failed", and succeeds. The C_eq table keeps the case
 #   as a "failed" row with no values; the surrogate never interpolates over it: it refuses the
 #   hole and names it. To retry, delete the case's record and run again.

@@ -10,6 +10,8 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
+import shutil
 import stat
 from pathlib import Path
 
@@ -217,6 +219,42 @@ def test_engine_failure_writes_a_failed_record_naming_case_and_logs(config, tmp_
     assert str(tmp_path / "work" / "screen.txt") in written["message"]
     assert str(log) in written["message"]
     assert "stand-in LIGGGHTS fails" in written["message"]
+    assert "after 2 attempt(s)" in written["message"] and written["engine_attempts"] == 2
+
+
+def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
+    liggghts = shutil.which("liggghts")
+    if liggghts is None:
+        pytest.skip("LIGGGHTS is not installed (apt-get install -y --no-install-recommends liggghts)")
+    marker = tmp_path / "failed_once"
+    script = tmp_path / "liggghts"
+    script.write_text(f"#!/bin/sh\nif [ ! -e {marker} ]; then touch {marker}; "
+                      "echo 'ERROR: MPI_ABORT (stand-in)'; exit 1; fi\n"
+                      f'exec {liggghts} "$@"\n')
+    script.chmod(0o755)
+    monkeypatch.setenv("PIDPIPE_LIGGGHTS", str(script))
+    case_config = campaign.stage_config(config, "case")
+    case_config["fidelity"].update(transient_cycles=1, measured_cycles=2)
+    packing_path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
+    log = tmp_path / "case.log"
+    campaign.run_step(campaign.simulate_case, str(log), config=case_config,
+                      case_id="f1000Hz_G5_r25pct_rep0", packing_path=str(packing_path),
+                      record_path=str(tmp_path / "rec.json"), workdir=str(tmp_path / "work"),
+                      log_path=str(log))
+    written = json.loads((tmp_path / "rec.json").read_text())
+    assert written["status"] in ("ok", "flagged") and written["engine_attempts"] == 2
+    assert "attempt 1 of 2" in log.read_text() and "MPI_ABORT (stand-in)" in log.read_text()
+
+
+def test_case_ids_match_the_wildcard_constraints():
+    number = campaign.WILDCARD_NUMBER
+    pattern = re.compile(f"f(?P<freq>{number})Hz_G(?P<accel>{number})_r(?P<fill>{number})pct"
+                         f"_rep(?P<replicate>{campaign.WILDCARD_REPLICATE})")
+    for case in (CaseSpec(62.5, 0.5, 33.3, 2), CaseSpec(1000.0, 10.0, 100.0), CaseSpec(0.25, 1e-3, 5)):
+        match = pattern.fullmatch(case.case_id)
+        assert match is not None, case.case_id
+        assert CaseSpec(float(match["freq"]), float(match["accel"]), float(match["fill"]),
+                        int(match["replicate"])) == case
 
 
 def test_packing_that_does_not_fit_fails_the_case(config, tmp_path, failing_liggghts):
