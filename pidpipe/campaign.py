@@ -63,7 +63,7 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
     "case": {
         "geometry": ["cell_inscribed_diameter_m", "core_height_m", "coupon_n_cells"],
         "fidelity": ["timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
-                     "measured_cycles", "sem_block_cycles", "rotation", "friction"],
+                     "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction"],
     },
 }
 
@@ -354,7 +354,7 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
 
 def failed_record(config: dict, case: CaseSpec, n_spheres: int, seed: int, message: str) -> dict:
     """The record of a case whose run failed: its coordinates, the settings it ran with, no values."""
-    from pidpipe.fidelity import plan_timestep
+    from pidpipe.fidelity import plan_timestep, transient_cycles_for
 
     fidelity = config["fidelity"]
     nan = float("nan")
@@ -368,7 +368,7 @@ def failed_record(config: dict, case: CaseSpec, n_spheres: int, seed: int, messa
             **plan_timestep(config, case.freq_hz).as_record(),
             "timestep_rayleigh_fraction_config": fidelity["timestep_rayleigh_fraction"],
             "youngs_modulus_scale": fidelity["youngs_modulus_scale"],
-            "transient_cycles": int(fidelity["transient_cycles"]),
+            "transient_cycles": transient_cycles_for(config, case.freq_hz),
             "measured_cycles": int(fidelity["measured_cycles"]),
             "sem_block_cycles": int(fidelity["sem_block_cycles"]),
             "rotation": bool(fidelity["rotation"]), "friction": bool(fidelity["friction"]),
@@ -586,13 +586,21 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
 # Surrogate, optimisation, figures
 
 
-def fit_table_surrogate(table_path: str, method: str, surrogate_path: str) -> None:
-    """Fit the configured surrogate to a C_eq table and save it (JSON)."""
+def fit_table_surrogate(table_path: str, method: str, surrogate_path: str,
+                        allow_holes: bool = False) -> None:
+    """Fit the configured surrogate to a C_eq table and save it (JSON).
+
+    With ``allow_holes`` grid points without an ok result are bridged by the RBF and listed in
+    the log; without it the fit stops and names them.
+    """
     from pidpipe.ceq_table import read_ceq_table
     from pidpipe.surrogate import fit_surrogate, save_surrogate
 
     table = read_ceq_table(table_path)
-    surrogate = fit_surrogate(table, method=method, source=str(table_path))
+    surrogate = fit_surrogate(table, method=method, source=str(table_path), allow_holes=allow_holes)
+    if surrogate.holes:
+        logger.warning("surrogate bridges %d grid point(s) without an ok result (f Hz, G g, r %%): %s",
+                       len(surrogate.holes), surrogate.holes)
     _write_atomic(surrogate_path, lambda tmp: save_surrogate(surrogate, tmp))
     logger.info("surrogate %s (%s target) on %d rows of %s; %d left out; domain %s", method,
                 surrogate.target, len(surrogate.training), table_path, len(surrogate.excluded),

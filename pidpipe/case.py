@@ -20,7 +20,7 @@ from pidpipe.config import particle_properties
 from pidpipe.damping import displacement_amplitude_m, summarise_cycles
 from pidpipe.decks import common_values, render, simulation_box
 from pidpipe.engine import run_deck
-from pidpipe.fidelity import plan_timestep
+from pidpipe.fidelity import plan_timestep, transient_cycles_for
 from pidpipe.packing import Packing, cell_from_config, check_packing
 from pidpipe.parsing import CycleSeries, read_cycles
 from pidpipe.geometry import write_cell_stl
@@ -47,7 +47,7 @@ def render_shake_deck(config: dict, case: CaseSpec, packing: Packing, workdir: P
     period = 1.0 / case.freq_hz
     omega = 2.0 * math.pi * case.freq_hz
     amplitude = displacement_amplitude_m(case.freq_hz, case.accel_g)
-    cycles = int(fidelity["transient_cycles"]) + int(fidelity["measured_cycles"])
+    cycles = transient_cycles_for(config, case.freq_hz) + int(fidelity["measured_cycles"])
     write_cell_stl(workdir / "cell.stl", cell)
     radius = particle_properties(config)["radius_m"]
     values = common_values(config, packing.centres(), plan.timestep_s, "cell.stl", case.case_id,
@@ -126,7 +126,7 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
     series = read_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"],
                          plan["cycles"])
     fidelity = config["fidelity"]
-    transient = int(fidelity["transient_cycles"])
+    transient = transient_cycles_for(config, case.freq_hz)
     measured = series.dissipated_j[transient:]
     summary = summarise_cycles(measured, case.freq_hz, case.accel_g,
                                config["geometry"]["coupon_n_cells"], fidelity["sem_block_cycles"])

@@ -46,6 +46,14 @@ def particle_rayleigh_time(config: dict) -> float:
                          particle["youngs_modulus_pa"] * scale, particle["poisson_ratio"])
 
 
+def transient_cycles_for(config: dict, freq_hz: float) -> int:
+    """Cycles discarded before measuring at ``freq_hz``: the configured count, or more to last
+    at least ``fidelity.transient_min_time_s``."""
+    fidelity = config["fidelity"]
+    by_time = math.ceil(fidelity["transient_min_time_s"] * freq_hz - 1e-9)
+    return max(int(fidelity["transient_cycles"]), by_time)
+
+
 def plan_timestep(config: dict, freq_hz: float) -> TimestepPlan:
     """Timestep for excitation at ``freq_hz`` (Hz) under the config's fidelity settings."""
     t_rayleigh = particle_rayleigh_time(config)

@@ -88,12 +88,13 @@ def validate_case(config: dict, case: CaseSpec, packing: Packing, workdir: str |
     from pidpipe.case import run_case
     from pidpipe.dem import simulate_cell
     from pidpipe.dem.from_config import scene_from_config
+    from pidpipe.fidelity import transient_cycles_for
 
     fidelity = config["fidelity"]
     liggghts_record = run_case(config, case, packing, Path(workdir) / case.case_id)
     (dem_record,) = simulate_cell(
         scene_from_config(config, case.freq_hz, case.accel_g), packing.centres(),
-        transient_cycles=int(fidelity["transient_cycles"]),
+        transient_cycles=transient_cycles_for(config, case.freq_hz),
         measured_cycles=int(fidelity["measured_cycles"]),
         block_cycles=int(fidelity["sem_block_cycles"]),
         n_cells=int(config["geometry"]["coupon_n_cells"]), seed=packing.seed)

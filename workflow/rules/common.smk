@@ -52,6 +52,10 @@ def get_surrogate_method():
     return config["surrogate"]["method"]
 
 
+def get_surrogate_allow_holes():
+    return config["surrogate"]["allow_holes"]
+
+
 def get_ceq_table():
     """The table the surrogate is fitted to: optimisation.external_ceq_table, else the campaign's."""
     return config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv"

@@ -9,6 +9,7 @@ rule fit_surrogate:
         surrogate="results/surrogate.json",
     params:
         method=get_surrogate_method(),
+        allow_holes=get_surrogate_allow_holes(),
     log:
         "logs/fit_surrogate.log",
     script:

@@ -7,5 +7,6 @@ run_step(
     snakemake.log[0],
     table_path=snakemake.input.table,
     method=snakemake.params.method,
+    allow_holes=snakemake.params.allow_holes,
     surrogate_path=snakemake.output.surrogate,
 )
