@@ -5,6 +5,7 @@
 #   snakemake --cores 2 --configfile .test/config.yaml   # the reduced CI campaign
 #   snakemake table | surrogate | optimum | figures      # stop after a stage
 #   snakemake --report report.html                       # figures and tables with captions
+#   snakemake --cores 2 validate                         # LIGGGHTS against the NumPy DEM (validation.cases)
 #
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in
@@ -15,8 +16,10 @@
 # - A case whose LIGGGHTS run fails (EngineError/ParseError) is run once more (a rare MPI_ABORT
 #   does not reproduce); if it fails again it does not stop the others: its job logs the message (naming the case, LIGGGHTS' screen file and the job's log), writes
 #   results/cases/<case>.json with status "failed", and succeeds. The C_eq table keeps the case
-#   as a "failed" row with no values; the surrogate never interpolates over it: it refuses the
-#   hole and names it. To retry, delete the case's record and run again.
+#   as a "failed" row with no values. Failed and flagged points are never fitted: with
+#   surrogate.allow_holes false the fit stops and names them; with true (config.yaml) the
+#   thin-plate RBF bridges them and the log lists them. To retry, delete the case's record
+#   and run again.
 # - A misfit or unsettled packing (PackingError) stops the run before any shaking run:
 #   check_packings lists every refused packing and its cases in one message. A missing
 #   LIGGGHTS, a bad config and every later stage's error stop the run with their message.
@@ -53,6 +56,7 @@ include: "workflow/rules/table.smk"
 include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/optimise.smk"
 include: "workflow/rules/figures.smk"
+include: "workflow/rules/validate.smk"
 
 
 rule all:

@@ -586,6 +586,37 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
 # Surrogate, optimisation, figures
 
 
+def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[str],
+                         table_path: str, plot_path: str, workdir: str) -> None:
+    """Run chosen cases in LIGGGHTS and in the NumPy DEM; write the comparison table and plot.
+
+    Parameters
+    ----------
+    config : dict
+        The case stage's config (:func:`stage_config`).
+    cases : list of dict
+        ``{"freq_hz", "accel_g", "fill_pct"}`` each (``validation.cases``).
+    packing_paths : list of path
+        The replicate-0 packings of the cases' fills.
+    table_path, plot_path : path
+        The comparison CSV and PNG.
+    workdir : path
+        Scratch folder for both solvers.
+    """
+    import shutil
+
+    from pidpipe.packing import load_packing
+    from pidpipe.validation import plot_comparison, run_validation
+
+    specs = [CaseSpec(float(c["freq_hz"]), float(c["accel_g"]), float(c["fill_pct"])) for c in cases]
+    packings = {Path(path).stem: load_packing(path) for path in packing_paths}
+    table = run_validation(config, specs, packings, workdir)
+    _write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
+    shutil.copyfile(Path(workdir) / "validation.png", plot_path)
+    logger.info("validation: %d of %d cases agree within 2 combined standard errors",
+                int(table["agree"].sum()), len(table))
+
+
 def fit_table_surrogate(table_path: str, method: str, surrogate_path: str,
                         allow_holes: bool = False) -> None:
     """Fit the configured surrogate to a C_eq table and save it (JSON).

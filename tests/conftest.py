@@ -44,5 +44,6 @@ def short_config(transient: int = 3, measured: int = 12) -> dict:
     """The default config with few cycles: for tests, not for numbers anyone reports."""
     cfg = load_config()
     cfg["fidelity"]["transient_cycles"] = transient
+    cfg["fidelity"]["transient_min_time_s"] = 0.0
     cfg["fidelity"]["measured_cycles"] = measured
     return cfg

@@ -88,3 +88,15 @@ def get_final_targets():
     if config["optimisation"]["external_ceq_table"] is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets
     return targets
+
+
+def get_validation_cases():
+    """The cases of `snakemake validate` (validation.cases)."""
+    return config["validation"]["cases"]
+
+
+def get_validation_packings():
+    """The replicate-0 packing of every fill in validation.cases."""
+    fills = sorted({campaign.CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
+                    for c in config["validation"]["cases"]})
+    return [f"results/packings/{packing_id}.json" for packing_id in fills]
