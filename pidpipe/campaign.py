@@ -82,21 +82,15 @@ _STATUS_ORDER = ("ok", "flagged", "failed", "missing")
 def workflow_config(raw: dict) -> dict:
     """Validate the workflow's config; also check what only the workflow needs.
 
-    Besides :func:`pidpipe.config.validate_config`: the surrogate method must be one that
-    :mod:`pidpipe.surrogate` knows, and an external C_eq table must exist (paths are relative to
-    the working directory), so that neither fails after the simulations.
+    Besides :func:`pidpipe.config.validate_config` (whose schema also lists the surrogate
+    methods): an external C_eq table must exist (paths are relative to the working directory),
+    so that the run does not fail after the simulations.
 
     Raises
     ------
     ConfigError
     """
-    from pidpipe.surrogate import METHODS
-
     config = validate_config(raw)
-    method = config["surrogate"]["method"]
-    if method not in METHODS:
-        raise ConfigError(f"config key surrogate.method = {method!r} is not allowed: it must be one "
-                          f"of {', '.join(METHODS)}")
     external = config["optimisation"]["external_ceq_table"]
     if external is not None and not Path(external).is_file():
         raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "
@@ -606,7 +600,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
     import shutil
 
     from pidpipe.packing import load_packing
-    from pidpipe.validation import plot_comparison, run_validation
+    from pidpipe.validation import run_validation
 
     specs = [CaseSpec(float(c["freq_hz"]), float(c["accel_g"]), float(c["fill_pct"])) for c in cases]
     packings = {Path(path).stem: load_packing(path) for path in packing_paths}

@@ -106,7 +106,7 @@ def check_config_command(args: argparse.Namespace) -> int:
     print(f"{args.config}: valid")
     print(f"  {len(grid_cases(config))} cases: f = {grid['freq_hz']} Hz x G = {grid['accel_g']} g x "
           f"r = {grid['fill_pct']} %")
-    print(f"  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
+    print("  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
                                               for r in grid["fill_pct"])
           + f" (full cell = {full_cell_spheres(config)}, fill.definition = {config['fill']['definition']})")
     print(f"  particle budget: {budget_spheres(config)} spheres; environments: "

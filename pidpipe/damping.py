@@ -48,11 +48,15 @@ def block_means(series: np.ndarray, block: int) -> np.ndarray:
 
 
 def mean_and_sem(series: np.ndarray, block: int = 1) -> tuple[float, float]:
-    """Mean of the whole series and its standard error from block means.
+    """Mean and standard error from means of consecutive blocks of ``block`` values.
+
+    A trailing partial block is left out of both, so that the mean and its error describe the
+    same cycles.
 
     Returns
     -------
     mean : float
+        Mean of the values in whole blocks.
     sem : float
         Standard error of the mean; NaN if fewer than two blocks.
     """

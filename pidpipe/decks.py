@@ -1,8 +1,8 @@
 """LIGGGHTS decks rendered from validated values.
 
 The templates live in ``templates/``. Everything that reaches a deck goes through a filter
-that accepts only what it expects: ``num`` a finite real number (written with 17 significant
-digits), ``int`` a non-negative integer, ``filename`` a plain file name, ``label`` a case id.
+that accepts only what it expects: ``num`` a finite real number (written in its shortest exact
+form), ``int`` a non-negative integer, ``filename`` a plain file name, ``label`` a case id.
 A string from the config therefore can never become a LIGGGHTS command (``shell``,
 ``include``, ``variable`` ...): it is refused with a :class:`~pidpipe.errors.ConfigError`.
 """

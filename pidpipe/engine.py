@@ -13,10 +13,8 @@ import re
 import shutil
 import signal
 import subprocess
-import tempfile
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 from pidpipe.errors import EngineError
@@ -67,16 +65,6 @@ def find_liggghts() -> str:
 
 
 _VERSION = re.compile(r"LIGGGHTS \(Version ([^)]*)\)")
-
-
-@lru_cache(maxsize=4)
-def liggghts_version(binary: str | None = None) -> str:
-    """LIGGGHTS' version line, e.g. ``LIGGGHTS-PUBLIC 3.8.0, compiled ...`` (runs ``liggghts -h``)."""
-    binary = binary or find_liggghts()
-    with tempfile.TemporaryDirectory() as scratch:  # LIGGGHTS writes a log file where it runs
-        out = subprocess.run([binary, "-h"], capture_output=True, text=True, timeout=60,
-                             check=False, cwd=scratch).stdout
-    return screen_version(out)
 
 
 def screen_version(screen_text: str) -> str:

@@ -44,10 +44,6 @@ from scipy.stats import qmc
 
 from pidpipe.errors import ConfigError, DomainError, PidpipeError
 
-#: Spheres per cell at r = 100 % in pidpipe's default definition (poured capacity, SPEC.md).
-POURED_CAPACITY_SPHERES = 22
-#: The source study's spheres per cell at r = 100 %.
-SOURCE_FULL_CELL_SPHERES = 36
 #: Order of the optimisation variables.
 VARIABLES: tuple[str, ...] = ("freq_hz", "fill_pct", "accel_g", "n_cells")
 #: A start counts as converged when SLSQP succeeds and the budget holds to this relative error.
@@ -95,14 +91,15 @@ class Budget:
     n_spheres : int
         n_b, spheres available for the panel.
     full_cell_spheres : float
-        Spheres in one cell at r = 100 % (36 in the source, 22 poured capacity).
+        Spheres in one cell at r = 100 % (``pidpipe.config.full_cell_spheres``: 36 in the
+        source's definition, 21 in the default poured-capacity one).
     n_cells_coupon : int
         N, cells of the coupon whose C_eq the surrogate predicts, and the most cells to fill.
     """
 
     n_spheres: int
-    full_cell_spheres: float = POURED_CAPACITY_SPHERES
-    n_cells_coupon: int = 441
+    full_cell_spheres: float
+    n_cells_coupon: int
 
     def __post_init__(self) -> None:
         if not (self.n_spheres >= 1 and self.full_cell_spheres > 0 and self.n_cells_coupon >= 1):

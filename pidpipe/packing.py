@@ -23,7 +23,7 @@ from pidpipe.damping import displacement_amplitude_m
 from pidpipe.decks import common_values, render, simulation_box
 from pidpipe.engine import run_deck
 from pidpipe.errors import PackingError, ParseError
-from pidpipe.fidelity import particle_rayleigh_time
+from pidpipe.fidelity import plan_timestep
 from pidpipe.geometry import HexCell, write_cell_stl
 
 DEPOSITION_GAP_FRACTION = 0.02
@@ -150,19 +150,17 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     start = random_start(cell, n_spheres, radius, seed)
     top_z = max(cell.lid_z_m, float(start[:, 2].max()) + 4.0 * radius)
     write_cell_stl(workdir / "pour_cell.stl", cell, top_z_m=top_z, closed=False)
-    dt = config["fidelity"]["timestep_rayleigh_fraction"] * particle_rayleigh_time(config)
-    settle_time = float(config["fidelity"]["settle_time_s"])
-    steps = max(1, math.ceil(settle_time / dt))
+    # One timestep for settling and tapping: a whole number of steps per tapping cycle.
+    plan = plan_timestep(config, TAP_FREQ_HZ)
+    target_dt = config["fidelity"]["timestep_rayleigh_fraction"] * plan.rayleigh_time_s
+    steps = max(1, math.ceil(float(config["fidelity"]["settle_time_s"]) / target_dt))
     label = f"pour_r{fill_pct:g}pct_rep{replicate}"
-    travel = 2.0 * displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G)
-    values = common_values(config, start, dt, "pour_cell.stl", label, "pack",
-                           simulation_box(cell, top_z, travel, radius), thermo_every=max(1, steps // 10))
-    tap_period = 1.0 / TAP_FREQ_HZ
-    tap_steps_per_cycle = max(1, math.ceil(tap_period / dt))
-    values.update(settle_steps=steps, output_file="settled.dump",
-                  tap_amplitude_m=displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G),
-                  tap_period_s=tap_period, tap_steps=TAP_CYCLES * tap_steps_per_cycle)
-    values["timestep_s"] = tap_period / tap_steps_per_cycle
+    amplitude = displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G)
+    values = common_values(config, start, plan.timestep_s, "pour_cell.stl", label, "pack",
+                           simulation_box(cell, top_z, 2.0 * amplitude, radius),
+                           thermo_every=max(1, steps // 10))
+    values.update(settle_steps=steps, output_file="settled.dump", tap_amplitude_m=amplitude,
+                  tap_period_s=1.0 / TAP_FREQ_HZ, tap_steps=TAP_CYCLES * plan.steps_per_cycle)
     deck = workdir / "pour.lmp"
     deck.write_text(render("pack.lmp.j2", values), encoding="utf-8")
     output = workdir / "settled.dump"
@@ -174,7 +172,7 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     return Packing(positions_m=centres.tolist(), radius_m=radius, n_spheres=n_spheres, seed=seed,
                    pile_height_m=pile, lid_height_m=cell.height_m,
                    max_speed_m_s=float(np.linalg.norm(velocities, axis=1).max()),
-                   settle_time_s=steps * values["timestep_s"], fill_pct=float(fill_pct))
+                   settle_time_s=steps * plan.timestep_s, fill_pct=float(fill_pct))
 
 
 def check_packing(packing: Packing, case_label: str) -> None:

@@ -75,3 +75,16 @@ def test_budget_from_mass_fraction():
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="does not exist"):
         load_config(tmp_path / "nope.yaml")
+
+
+def test_schema_lists_exactly_the_surrogate_methods():
+    from pidpipe.config import load_schema
+    from pidpipe.surrogate import METHODS
+
+    allowed = load_schema()["properties"]["surrogate"]["properties"]["method"]["enum"]
+    assert sorted(allowed) == sorted(METHODS)
+
+
+def test_unknown_surrogate_method_is_refused():
+    with pytest.raises(ConfigError, match="surrogate.method"):
+        validate_config(_mutated(lambda c: c["surrogate"].update(method="kriging")))
