@@ -1,0 +1,111 @@
+"""The physics figures the README quotes, measured with the real LIGGGHTS (and the NumPy DEM).
+
+1. Restitution of a sphere on the wall and of two spheres (configured 0.70) at three timesteps.
+2. e = 1, mu = 0: mean dissipation over 60 cycles against the work exchanged per cycle.
+3. Pour capacity: pile heights of 20, 21 and 22 spheres for five seeds (the lid is at 25.4 mm).
+4. Steady state at 1000 Hz, 5 g, 50 %: stored-energy drift with 5 transient cycles and with the
+   default minimum transient time.
+5. LIGGGHTS against the NumPy DEM on five cases (5 transient + 24 measured cycles; --no-dem to skip).
+
+Run: .venv/bin/python benchmarks/physics_checks.py [--no-dem]   (about 6 minutes on 2 cores)
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _record import append
+
+from pidpipe.case import run_case
+from pidpipe.cases import CaseSpec
+from pidpipe.config import load_config
+from pidpipe.impacts import pair_restitution, wall_restitution
+from pidpipe.packing import pour
+
+VALIDATION_CASES = [(1000, 10), (1000, 1), (500, 5), (100, 10), (100, 1)]
+
+
+def restitution_lines(scratch: Path) -> list[str]:
+    lines = ["| dt / Rayleigh time | sphere-wall e (0.70) | sphere-sphere e (0.70) |", "|---|---|---|"]
+    for fraction in (0.2, 0.1, 0.05):
+        cfg = load_config()
+        cfg["fidelity"]["timestep_rayleigh_fraction"] = fraction
+        lines.append(f"| {fraction} | {wall_restitution(cfg, 0.5, scratch / 'w'):.4f} | "
+                     f"{pair_restitution(cfg, 0.5, scratch / 'p'):.4f} |")
+    return lines + ["(impact speed 0.5 m/s)", ""]
+
+
+def elastic_lines(scratch: Path, packing) -> list[str]:
+    cfg = load_config()
+    cfg["fidelity"].update(transient_cycles=2, transient_min_time_s=0.0, measured_cycles=60, friction=False)
+    for pair in cfg["pairs"]:
+        pair["restitution"] = 1.0
+    cycles = run_case(cfg, CaseSpec(500, 5, 50), packing, scratch / "elastic")["cycles"]
+    dissipated, exchanged = np.array(cycles["dissipated_j"][2:]), np.array(cycles["gross_work_j"][2:])
+    return [f"e = 1, mu = 0, 500 Hz, 5 g, 11 spheres, 60 cycles: mean E_d / mean work exchanged per "
+            f"cycle = {dissipated.mean() / exchanged.mean():+.4%}; largest single cycle "
+            f"{np.abs(dissipated).max() / exchanged.mean():.2f} (elastic energy held in contacts at "
+            "cycle ends)", ""]
+
+
+def capacity_lines(scratch: Path) -> list[str]:
+    cfg = load_config()
+    cfg["fill"]["definition"] = "source_36"
+    lines = ["| spheres | pile heights, seeds 0-4 (mm) | below the 25.4 mm lid |", "|---|---|---|"]
+    for count in (20, 21, 22):
+        piles = [pour(cfg, 100.0 * count / 36 + 1e-9, k, scratch / "pour").pile_height_m * 1e3
+                 for k in range(5)]
+        lines.append(f"| {count} | {', '.join(f'{p:.2f}' for p in piles)} | "
+                     f"{sum(p <= 25.4 for p in piles)} of 5 |")
+    return lines + [""]
+
+
+def steady_lines(scratch: Path, packing) -> list[str]:
+    lines = []
+    for label, minimum in (("5 transient cycles", 0.0), ("default (>= 0.03 s)", None)):
+        cfg = load_config()
+        if minimum is not None:
+            cfg["fidelity"]["transient_min_time_s"] = minimum
+        record = run_case(cfg, CaseSpec(1000, 5, 50), packing, scratch / "steady")
+        lines.append(f"1000 Hz, 5 g, 50 %, {label}: {record['fidelity']['transient_cycles']} transient "
+                     f"cycles, drift {record['energy_drift_fraction']:.3f}, status {record['status']}")
+    return lines + [""]
+
+
+def validation_lines(scratch: Path, packing) -> list[str]:
+    from pidpipe.validation import run_validation
+
+    cfg = load_config()
+    cfg["fidelity"].update(transient_cycles=5, measured_cycles=24)
+    cases = [CaseSpec(f, g, 50) for f, g in VALIDATION_CASES]
+    table = run_validation(cfg, cases, {"r50pct_rep0": packing}, scratch / "validation")
+    lines = ["| case | transient cycles | C_eq LIGGGHTS N s/m | C_eq NumPy DEM N s/m | ratio | agree (2 SEM) |",
+             "|---|---|---|---|---|---|"]
+    for spec, row in zip(cases, table.itertuples()):
+        transient = max(5, int(np.ceil(cfg["fidelity"]["transient_min_time_s"] * spec.freq_hz - 1e-9)))
+        lines.append(f"| {row.case_id} | {transient} | {row.ceq_cell_liggghts_ns_m:.4g} +- "
+                     f"{row.ceq_cell_liggghts_sem_ns_m:.2g} | {row.ceq_cell_dem_ns_m:.4g} +- "
+                     f"{row.ceq_cell_dem_sem_ns_m:.2g} | {row.ratio_dem_over_liggghts:.3f} +- "
+                     f"{row.ratio_sem:.3f} | {row.agree} |")
+    return lines + ["(11 spheres, the seed-0 50 % packing, 24 measured cycles, +- one standard error)", ""]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--no-dem", action="store_true", help="skip the NumPy DEM comparison")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as folder:
+        scratch = Path(folder)
+        packing = pour(load_config(), 50, 0, scratch / "pour50")
+        lines = (restitution_lines(scratch) + elastic_lines(scratch, packing) + capacity_lines(scratch)
+                 + steady_lines(scratch, packing))
+        if not args.no_dem:
+            lines += validation_lines(scratch, packing)
+    append("Physics checks", "python benchmarks/physics_checks.py", lines)
+
+
+if __name__ == "__main__":
+    main()
