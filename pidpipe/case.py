@@ -162,6 +162,7 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
         "engine": {
             "liggghts_version": engine.version,
             "liggghts_wall_time_s": engine.wall_time_s,
+            "liggghts_cpu_time_s": engine.cpu_time_s,
             "liggghts_loop_time_s": engine.loop_time_s,
             "steps": engine.steps,
             "host": platform.node(),
