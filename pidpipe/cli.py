@@ -57,6 +57,7 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.case import run_case, write_record
     from pidpipe.cases import CaseSpec
     from pidpipe.config import load_config
+    from pidpipe.fidelity import transient_cycles_for
     from pidpipe.packing import check_packing, pour
 
     config = load_config(args.config)
@@ -65,7 +66,7 @@ def run_case_command(args: argparse.Namespace) -> int:
     print(f"pidpipe: {case.case_id}: pouring the packing ...", file=sys.stderr, flush=True)
     packing = pour(config, case.fill_pct, case.replicate, args.workdir / "pour")
     check_packing(packing, case.case_id)
-    cycles = config["fidelity"]["transient_cycles"] + config["fidelity"]["measured_cycles"]
+    cycles = transient_cycles_for(config, case.freq_hz) + config["fidelity"]["measured_cycles"]
     print(f"pidpipe: {case.case_id}: shaking {packing.n_spheres} spheres for {cycles} cycles ...",
           file=sys.stderr, flush=True)
     record = run_case(config, case, packing, args.workdir / case.case_id)
@@ -86,9 +87,12 @@ def format_result(record: dict) -> str:
         f"  E_d per cycle   = {record['ed_cycle_mean_j']:.4g} +- {record['ed_cycle_sem_j']:.2g} J "
         f"(cycle-to-cycle std {record['ed_cycle_std_j']:.2g} J, lag-1 autocorrelation "
         f"{record['ed_lag1_autocorrelation']:.2f})",
-        f"  steady state    : stored-energy drift {100 * record['energy_drift_fraction']:.1f} % of the dissipation",
+        f"  steady state    : transient {fid['transient_cycles']} cycles (configured "
+        f"{fid['transient_cycles_configured']}, MSER {record['detected_transient_cycles']}); "
+        f"stored-energy drift {100 * record['energy_drift_fraction']:.1f} % of the dissipation; "
+        f"halves p = {record['halves_p_value']:.2g}; regime {record['regime']}",
         f"  fidelity        : dt = {fid['timestep_s']:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
-        f"{fid['transient_cycles']} transient + {fid['measured_cycles']} measured cycles, "
+        f"{fid['transient_cycles']} transient + {record['n_cycles']} measured cycles, "
         f"E scale {fid['youngs_modulus_scale']:g}, seed {fid['seed']}",
         f"  engine          : {record['engine']['liggghts_version'].split(',')[0]}, "
         f"{record['engine']['liggghts_wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",

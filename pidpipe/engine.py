@@ -46,6 +46,8 @@ class EngineRun:
         The kept screen output.
     version : str
         LIGGGHTS' version, as the run printed it.
+    timestep_warnings : tuple of str
+        The distinct warnings of ``fix check/timestep/gran`` (timestep too large), if any.
     """
 
     wall_time_s: float
@@ -54,6 +56,7 @@ class EngineRun:
     steps: int
     screen_path: Path
     version: str
+    timestep_warnings: tuple[str, ...] = ()
 
 
 def find_liggghts() -> str:
@@ -128,7 +131,15 @@ def run_deck(deck_path: str | Path, case_label: str, timeout_s: float | None = N
     loops = _LOOP_TIME.findall(text)
     return EngineRun(wall_time_s=wall, cpu_time_s=cpu, loop_time_s=sum(float(t) for t, _, _ in loops),
                      steps=sum(int(n) for _, _, n in loops), screen_path=screen,
-                     version=screen_version(text))
+                     version=screen_version(text), timestep_warnings=timestep_warnings(text))
+
+
+_TIMESTEP_WARNING = re.compile(r"^WARNING: time[- ]step.*$", re.MULTILINE)
+
+
+def timestep_warnings(screen_text: str) -> tuple[str, ...]:
+    """The distinct timestep warnings (``fix check/timestep/gran``) of a screen output, in order."""
+    return tuple(dict.fromkeys(line.strip() for line in _TIMESTEP_WARNING.findall(screen_text)))
 
 
 def _children_cpu_s() -> float:

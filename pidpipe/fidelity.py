@@ -14,6 +14,14 @@ from pidpipe.config import particle_properties
 from pidpipe.contact import rayleigh_time
 
 
+HERTZ_FRACTION_LIMIT = 0.1
+"""Largest dt / Hertz contact time at the fastest impact (LIGGGHTS' conservative estimate in
+``fix check/timestep/gran``): at least 10 steps per collision."""
+
+TIMESTEP_CHECKS_PER_CYCLE = 20
+"""How often per cycle LIGGGHTS checks the timestep against the fastest sphere."""
+
+
 @dataclass(frozen=True)
 class TimestepPlan:
     """Timestep of one case.
