@@ -110,3 +110,111 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
     return CycleSeries(wall_work_j=work, gross_work_j=gross, energy_j=mechanical,
                        dissipated_j=work - np.diff(mechanical), lowest_z_m=energy[1:, 4],
                        highest_z_m=energy[1:, 5])
+
+
+SPHERE_COLUMNS = ("id", "x", "y", "z", "vx", "vy", "vz", "omegax", "omegay", "omegaz", "radius",
+                  "mass", "cycle_power")
+"""Columns of the per-sphere dump of the patch deck (templates/patch.lmp.j2), in order: SI units;
+``cycle_power`` is the sphere's share of the wall power averaged over the cycle that ends at the
+frame, W (0 in the frame of step 0)."""
+ROTATIONAL_INERTIA_FACTOR = 0.4
+"""I = 0.4 m r^2, the solid sphere (as LIGGGHTS' compute erotate/sphere)."""
+
+
+def read_dump_frames(path: str | Path, n_columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every frame of a LIGGGHTS ``dump custom`` file sorted by id (``dump_modify sort id``).
+
+    Returns
+    -------
+    steps : ndarray of int, shape (n_frames,)
+    frames : ndarray, shape (n_frames, n_atoms, n_columns)
+
+    Raises
+    ------
+    ParseError
+        If the file is missing or empty, a frame is truncated, the atom count or order changes
+        between frames, or a value is not finite.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ParseError(f"LIGGGHTS output {path} is missing (did the run finish?)")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    starts = [i for i, line in enumerate(lines) if line.startswith("ITEM: TIMESTEP")]
+    if not starts:
+        raise ParseError(f"{path} holds no frame")
+    steps, frames = [], []
+    for number, start in enumerate(starts):
+        try:
+            steps.append(int(lines[start + 1]))
+            n_atoms = int(lines[start + 3])
+            body = lines[start + 9: start + 9 + n_atoms]
+            table = np.array(" ".join(body).split(), dtype=float)
+        except (IndexError, ValueError):
+            raise ParseError(f"{path}: frame {number} is malformed or truncated") from None
+        if not lines[start + 8].startswith("ITEM: ATOMS") or table.size != n_atoms * n_columns:
+            raise ParseError(f"{path}: frame {number} (step {steps[-1]}) does not hold {n_atoms} "
+                             f"rows of {n_columns} columns (truncated run?)")
+        frames.append(table.reshape(n_atoms, n_columns))
+    if len({frame.shape for frame in frames}) != 1:
+        raise ParseError(f"{path}: the number of atoms changes between frames (atoms lost?)")
+    frames = np.stack(frames)
+    if not np.all(frames[:, :, 0] == frames[0, :, 0]):
+        raise ParseError(f"{path}: the atoms are not in the same order in every frame (sort id?)")
+    if not np.all(np.isfinite(frames)):
+        raise ParseError(f"{path} holds a non-finite value: the run went unstable")
+    return np.array(steps), frames
+
+
+def cell_cycles(steps: np.ndarray, frames: np.ndarray, cell_index: np.ndarray, period_s: float,
+                expected_cycles: int, gravity_m_s2: float, floor_z_m: float) -> list[CycleSeries]:
+    """Per-cell energy balance from the patch deck's per-sphere dump (:func:`read_dump_frames`).
+
+    For cell c and cycle k, the wall work is the period times the sum over the cell's spheres
+    of their mean wall power over the cycle; the mechanical energy at cycle ends is the sum of
+    1/2 m v^2, 1/2 (0.4 m r^2) omega^2 and m g (z - floor_z_m) over the cell's spheres.
+
+    Parameters
+    ----------
+    steps : ndarray of int, shape (n_frames,)
+    frames : ndarray, shape (n_frames, n_atoms, len(SPHERE_COLUMNS))
+        The per-sphere dump: one frame per cycle end, from step 0.
+    cell_index : ndarray of int, shape (n_atoms,)
+        The cell of each atom, in atom-id order.
+    period_s : float
+        Period of the base motion, s.
+    expected_cycles : int
+        Cycles the deck ran (the dump holds one frame more).
+    gravity_m_s2, floor_z_m : float
+        Gravity and the potential energy's reference height (the floor at rest), as in the
+        deck's whole-patch bookkeeping.
+
+    Returns
+    -------
+    list of CycleSeries, one per cell
+        ``gross_work_j`` is NaN: the gross work exchanged is a whole-mesh quantity.
+    """
+    cell_index = np.asarray(cell_index, dtype=np.int64)
+    if len(steps) != expected_cycles + 1 or steps[0] != 0:
+        raise ParseError(f"the sphere dump has {len(steps)} frames from step {steps[0]}, expected "
+                         f"{expected_cycles + 1} from step 0 (truncated run?)")
+    if frames.shape[1] != cell_index.size or frames.shape[2] != len(SPHERE_COLUMNS):
+        raise ParseError(f"the sphere dump holds {frames.shape[1]} spheres x {frames.shape[2]} "
+                         f"columns, expected {cell_index.size} x {len(SPHERE_COLUMNS)}")
+    col = {name: k for k, name in enumerate(SPHERE_COLUMNS)}
+    mass, radius = frames[:, :, col["mass"]], frames[:, :, col["radius"]]
+    speed2 = np.sum(frames[:, :, col["vx"]:col["vz"] + 1] ** 2, axis=2)
+    spin2 = np.sum(frames[:, :, col["omegax"]:col["omegaz"] + 1] ** 2, axis=2)
+    sphere_energy = (0.5 * mass * speed2 + 0.5 * ROTATIONAL_INERTIA_FACTOR * mass * radius**2 * spin2
+                     + gravity_m_s2 * mass * (frames[:, :, col["z"]] - floor_z_m))
+    sphere_work = frames[1:, :, col["cycle_power"]] * period_s
+    n_cells = int(cell_index.max()) + 1
+    series = []
+    for cell in range(n_cells):
+        mine = cell_index == cell
+        energy = sphere_energy[:, mine].sum(axis=1)
+        work = sphere_work[:, mine].sum(axis=1)
+        z = frames[1:, mine, col["z"]]
+        series.append(CycleSeries(wall_work_j=work, gross_work_j=np.full(work.shape, np.nan),
+                                  energy_j=energy, dissipated_j=work - np.diff(energy),
+                                  lowest_z_m=z.min(axis=1), highest_z_m=z.max(axis=1)))
+    return series
