@@ -39,8 +39,8 @@ from typing import Callable, Iterable
 import numpy as np
 import pandas as pd
 
-from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
-from pidpipe.ceq_table import COORDINATE_COLUMNS
+from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases, regime
+from pidpipe.ceq_table import COORDINATE_COLUMNS, signal_quality
 from pidpipe.config import budget_spheres, full_cell_spheres, validate_config
 from pidpipe.errors import ConfigError, EngineError, PackingError, ParseError, PidpipeError
 
@@ -399,8 +399,9 @@ _SETTING_COLUMNS = {
 }
 #: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.ceq_table`).
 TABLE_COLUMNS: tuple[str, ...] = (
-    "case_id", "freq_hz", "accel_g", "fill_pct", "status", "flags", "n_replicates",
-    "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_cell_ns_m", "ceq_cell_sem_ns_m",
+    "case_id", "freq_hz", "accel_g", "fill_pct", "status", "flags", "regime", "signal",
+    "n_replicates", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_relative_sem",
+    "ceq_cell_ns_m", "ceq_cell_sem_ns_m",
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
@@ -509,6 +510,9 @@ def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dic
         row[value_key], row[sem_key] = combine_replicates(
             [_number(r.get(value_key)) for r in used], [_number(r.get(sem_key)) for r in used])
     row["n_cycles"] = int(sum(int(r.get("n_cycles") or 0) for r in used))
+    row["regime"] = regime(point[1])
+    row["ceq_relative_sem"], row["signal"] = signal_quality(row["ceq_coupon_ns_m"],
+                                                            row["ceq_coupon_sem_ns_m"])
     timed = [r for r in replicates if r.get("status") in ("ok", "flagged")]
     row["wall_time_s"] = float(sum(_number(r.get("wall_time_s")) for r in timed)) if timed else math.nan
     row["liggghts_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "liggghts_wall_time_s")))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pidpipe.cases import CaseSpec
+from pidpipe.cases import CaseSpec, regime
 from pidpipe.config import particle_properties
 from pidpipe.damping import displacement_amplitude_m, summarise_cycles
 from pidpipe.decks import common_values, render, simulation_box
@@ -78,19 +78,6 @@ def containment_flags(config: dict, series: CycleSeries, amplitude_m: float) -> 
 def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
     """``timestep_check`` if LIGGGHTS warned that the timestep is too large for the run."""
     return ["timestep_check"] if warnings else []
-
-
-REGIME_NO_LIFT_OFF = "no_lift_off"
-REGIME_IMPACTING = "impacting"
-
-
-def regime(accel_g: float) -> str:
-    """The excitation regime: ``no_lift_off`` if the base acceleration does not exceed gravity.
-
-    At G <= 1 a sphere resting on the floor is never pulled off it: the bed moves with the
-    cell, and what dissipates is contact damping and micro-slip, small and hard to resolve.
-    """
-    return REGIME_NO_LIFT_OFF if accel_g <= 1.0 else REGIME_IMPACTING
 
 
 def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path) -> dict:

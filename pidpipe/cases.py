@@ -76,3 +76,16 @@ def grid_cases(config: dict, replicates: int = 1) -> list[CaseSpec]:
     return [CaseSpec(float(f), float(g), float(r), k)
             for f, g, r, k in itertools.product(sorted(grid["freq_hz"]), sorted(grid["accel_g"]),
                                                 sorted(grid["fill_pct"]), range(replicates))]
+
+
+REGIME_NO_LIFT_OFF = "no_lift_off"
+REGIME_IMPACTING = "impacting"
+
+
+def regime(accel_g: float) -> str:
+    """The excitation regime: ``no_lift_off`` if the base acceleration does not exceed gravity.
+
+    At G <= 1 a sphere resting on the floor is never pulled off it: the bed moves with the
+    cell, and what dissipates is contact damping and micro-slip, small and hard to resolve.
+    """
+    return REGIME_NO_LIFT_OFF if accel_g <= 1.0 else REGIME_IMPACTING

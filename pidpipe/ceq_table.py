@@ -14,6 +14,7 @@ them. A table without a ``status`` column is taken as all ``"ok"``.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,13 @@ COORDINATE_COLUMNS: tuple[str, ...] = ("freq_hz", "accel_g", "fill_pct")
 #: The fitted quantity: the coupon's equivalent viscous damping, N*s/m.
 VALUE_COLUMN = "ceq_coupon_ns_m"
 
+#: Its standard error, N*s/m (optional).
+SEM_COLUMN = "ceq_coupon_sem_ns_m"
+
+#: Low-signal warning: a C_eq whose standard error exceeds this fraction of it is marked
+#: ``uncertain`` in the table's ``signal`` column and drawn as such in the figures.
+UNCERTAIN_RELATIVE_SEM = 0.3
+
 #: Columns every table must have.
 REQUIRED_COLUMNS: tuple[str, ...] = COORDINATE_COLUMNS + (VALUE_COLUMN,)
 
@@ -36,6 +44,7 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
     "ceq_cell_ns_m",
     "ceq_cell_sem_ns_m",
     "ceq_coupon_sem_ns_m",
+    "ceq_relative_sem",
     "ed_cycle_mean_j",
     "ed_cycle_sem_j",
     "n_cycles",
@@ -49,7 +58,8 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
 )
 
 #: Text columns that the campaign writes.
-OPTIONAL_TEXT_COLUMNS: tuple[str, ...] = ("case_id", "status", "flags", "liggghts_version")
+OPTIONAL_TEXT_COLUMNS: tuple[str, ...] = ("case_id", "status", "flags", "regime", "signal",
+                                          "liggghts_version")
 
 #: Every column the campaign writes, required first.
 OPTIONAL_COLUMNS: tuple[str, ...] = OPTIONAL_TEXT_COLUMNS + OPTIONAL_NUMERIC_COLUMNS
@@ -240,3 +250,14 @@ def split_usable(table: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     """
     mask = usable_mask(table)
     return table.loc[mask], table.loc[~mask]
+
+
+def signal_quality(value: float, sem: float) -> tuple[float, str]:
+    """Relative standard error of a C_eq and its label: ``resolved``, ``uncertain`` (SEM above
+    :data:`UNCERTAIN_RELATIVE_SEM` of the value, or a value not above zero) or ``none`` (NaN)."""
+    if not (math.isfinite(value) and math.isfinite(sem)):
+        return math.nan, "none"
+    if value <= 0.0:
+        return math.inf, "uncertain"
+    relative = sem / value
+    return relative, ("uncertain" if relative > UNCERTAIN_RELATIVE_SEM else "resolved")

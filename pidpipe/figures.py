@@ -23,6 +23,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
+from pidpipe.ceq_table import SEM_COLUMN, UNCERTAIN_RELATIVE_SEM, VALUE_COLUMN
 from pidpipe.optimisation import OptimisationResult
 from pidpipe.surrogate import Surrogate
 
@@ -189,12 +190,30 @@ def _mark_points(ax, surrogate: Surrogate, fixed: str, level: float,
     if np.any(on):
         ax.scatter(x[on], y[on], s=34, color="black", edgecolors="white", linewidths=0.8,
                    clip_on=False, zorder=4, label="DEM points on the slice")
+    uncertain = _uncertain_rows(rows)
+    if np.any(uncertain):
+        ax.scatter(x[uncertain], y[uncertain], s=95, facecolors="none", edgecolors="C1",
+                   linewidths=1.6, clip_on=False, zorder=4,
+                   label=f"DEM C_eq uncertain (SEM > {100 * UNCERTAIN_RELATIVE_SEM:g} %)")
+    if "accel_g" in axes_vars and rows["accel_g"].min() <= 1.0:
+        ax.axhline(1.0, color="C1", linestyle="--", linewidth=1.2, zorder=3,
+                   label="G = 1: at and below it the spheres never leave the floor")
     left_out = [r for r in surrogate.excluded
                 if all(r.get(k) is not None for k in (fixed,) + axes_vars)]
     if left_out:
         ax.scatter([r[axes_vars[0]] for r in left_out], [r[axes_vars[1]] for r in left_out],
                    marker="x", s=44, color="red", clip_on=False, zorder=5,
                    label="DEM cases left out of the fit (status not ok; projected)")
+
+
+def _uncertain_rows(rows) -> np.ndarray:
+    """Training rows whose C_eq standard error exceeds UNCERTAIN_RELATIVE_SEM of the value."""
+    if SEM_COLUMN not in rows.columns:
+        return np.zeros(len(rows), dtype=bool)
+    value = rows[VALUE_COLUMN].to_numpy(dtype=float)
+    sem = rows[SEM_COLUMN].to_numpy(dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (value <= 0.0) | (sem > UNCERTAIN_RELATIVE_SEM * value)
 
 
 def plot_convergence(results: list[OptimisationResult], stem: str | Path | None = None) -> Figure:

@@ -67,6 +67,7 @@ from scipy.interpolate import RBFInterpolator, make_interp_spline
 from pidpipe.ceq_table import (
     COORDINATE_COLUMNS,
     VALUE_COLUMN,
+    SEM_COLUMN,
     split_usable,
     validate_ceq_table,
 )
@@ -105,7 +106,8 @@ class Surrogate:
     method, target : str
         One of :data:`METHODS` and of :data:`TARGETS`.
     training : pandas.DataFrame
-        The fitted rows (``freq_hz, accel_g, fill_pct, ceq_coupon_ns_m``), shape (n, 4).
+        The fitted rows (``freq_hz, accel_g, fill_pct, ceq_coupon_ns_m``, and
+        ``ceq_coupon_sem_ns_m`` when the table has it: the figures mark uncertain points).
     domain : dict of str -> (float, float)
         Bounds of ``freq_hz`` (Hz), ``accel_g`` (g) and ``fill_pct`` (%).
     offset_ns_m : float
@@ -267,7 +269,8 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     model = _build_model(method, points, y, domain, smoothing, source)
     return Surrogate(
         method=method, target=target,
-        training=used[list(COORDINATE_COLUMNS) + [VALUE_COLUMN]].reset_index(drop=True),
+        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN)
+                       if c in used.columns]].reset_index(drop=True),
         domain=domain, offset_ns_m=float(offset),
         excluded=_describe_rows(excluded), holes=holes,
         options={"log_offset_fraction": log_offset_fraction, "smoothing": smoothing,

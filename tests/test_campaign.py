@@ -398,3 +398,15 @@ def test_results_json_reads_back_and_plots(tmp_path):
     campaign.plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
     assert (tmp_path / "convergence.png").stat().st_size > 1000
     assert (tmp_path / "convergence.pdf").stat().st_size > 1000
+
+
+def test_table_names_the_regime_and_whether_the_signal_is_resolved():
+    rows = campaign.records_to_table([record(accel=1.0, ceq=2.0, sem=0.9),
+                                      record(accel=5.0, ceq=10.0, sem=1.0),
+                                      record(accel=10.0, status="failed", ceq=float("nan"), sem=float("nan"))])
+    one_g, five_g, failed = (rows[rows.accel_g == g].iloc[0] for g in (1.0, 5.0, 10.0))
+    assert (one_g["regime"], one_g["signal"]) == ("no_lift_off", "uncertain")
+    assert one_g["ceq_relative_sem"] == pytest.approx(0.45)
+    assert (five_g["regime"], five_g["signal"]) == ("impacting", "resolved")
+    assert failed["signal"] == "none"
+

@@ -93,3 +93,16 @@ def test_convergence_figure_highlights_the_global_optimum(surrogate, tmp_path):
         best = max(drawn, key=lambda line: line.get_linewidth())
         best_run = next(r for r in res.starts if r.index == res.optimum.start_indices[0])
         np.testing.assert_allclose(best.get_ydata(), best_run.history_ns_m)
+
+
+def test_uncertain_points_and_the_one_g_line_are_drawn(tmp_path):
+    # Below resolution is shown as such: the 1 g rows carry a 50 % SEM and are ringed; the line
+    # at G = 1 marks where the spheres stop leaving the floor.
+    rows = table()
+    rows["ceq_coupon_sem_ns_m"] = np.where(rows.accel_g <= 1.0, 0.5, 0.05) * rows.ceq_coupon_ns_m
+    fig = plot_ceq_freq_accel(fit_surrogate(rows), (25.0, 50.0, 80.0), stem=tmp_path / "u")
+    ax = panels(fig)[0]
+    ringed = [c for c in ax.collections if c.get_label().startswith("DEM C_eq uncertain")]
+    assert len(ringed) == 1
+    assert np.allclose(ringed[0].get_offsets()[:, 1], 1.0) and len(ringed[0].get_offsets()) == 20
+    assert any(line.get_label().startswith("G = 1") for line in ax.get_lines())

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pidpipe.case import REGIME_IMPACTING, REGIME_NO_LIFT_OFF, regime, timestep_flags
+from pidpipe.case import timestep_flags
+from pidpipe.cases import REGIME_IMPACTING, REGIME_NO_LIFT_OFF, regime
 from pidpipe.damping import mean_and_sem, standard_error
 from pidpipe.engine import timestep_warnings
 from pidpipe.steady_state import (assess_steady_state, halves_p_value, mser_truncation)
