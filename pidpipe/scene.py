@@ -13,6 +13,7 @@ the sum over cells must match the mesh ledger, which the record reports.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -106,6 +107,8 @@ def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packi
         ``ledger_mismatch``: sum of per-cell wall work minus the mesh ledger's, per measured
         cycle, as a fraction of the mean gross work exchanged and of the mean E_d;
         ``contained``: whether every sphere was inside its own cell at every cycle end;
+        ``total_dissipated_j`` (mesh ledger) and ``cell_dissipated_j`` (per cell): E_d of each
+        measured cycle, J;
         ``engine``: LIGGGHTS' CPU, wall and loop time and steps; ``cell_cycles``: cells x
         cycles run; plus the case and fidelity.
     """
@@ -151,6 +154,8 @@ def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packi
                                                  / total.gross_work_j[transient:].mean()),
         },
         "contained": bool(np.all(contained)),
+        "total_dissipated_j": total.dissipated_j[transient:].tolist(),
+        "cell_dissipated_j": [series.dissipated_j[transient:].tolist() for series in per_cell],
         "transient_cycles": transient, "measured_cycles": plan["cycles"] - transient,
         "timestep": plan["timestep"].as_record(),
         "cell_cycles": len(packings) * plan["cycles"],
@@ -223,7 +228,8 @@ def replicate_packings(config: dict, fill_pct: float, replicates: int, folder: s
     -------
     packings : list of Packing
     pour_cpu_s : dict
-        CPU time (s) of each pour run by this call, by replicate.
+        CPU time (s) of each pour, by replicate, as measured when it was poured (kept in
+        ``folder`` next to the packings).
     """
     from concurrent.futures import ProcessPoolExecutor
 
@@ -244,13 +250,17 @@ def replicate_packings(config: dict, fill_pct: float, replicates: int, folder: s
         return packing.seed == seed + k and packing.n_spheres == wanted
 
     missing = [k for k in range(replicates) if not usable(k)]
-    pour_cpu = {}
+    cpu_path = folder / f"r{format_number(fill_pct)}pct_pour_cpu_s.json"
+    pour_cpu = ({int(k): v for k, v in json.loads(cpu_path.read_text()).items()}
+                if cpu_path.is_file() else {})
     if missing:
         with ProcessPoolExecutor(max_workers=max(1, int(workers))) as pool:
-            for k, cpu in zip(missing, pool.map(_pour_one, [(config, fill_pct, k, str(paths[k]))
-                                                            for k in missing])):
+            jobs = [(config, fill_pct, k, str(paths[k])) for k in missing]
+            for k, cpu in zip(missing, pool.map(_pour_one, jobs)):
                 pour_cpu[k] = cpu
-    return [load_packing(path) for path in paths], pour_cpu
+                cpu_path.write_text(json.dumps(pour_cpu))
+    return [load_packing(path) for path in paths], {k: pour_cpu[k] for k in range(replicates)
+                                                    if k in pour_cpu}
 
 
 def _pour_one(job: tuple) -> float:
@@ -270,3 +280,68 @@ def _pour_one(job: tuple) -> float:
         shutil.rmtree(scratch, ignore_errors=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
+def separate_runs_scene(records: list[dict], block_cycles: int) -> dict:
+    """The scene of k cells shaken in k separate runs, summarised as one patch run is.
+
+    Parameters
+    ----------
+    records : list of dict
+        :func:`run_patch` records of one cell each, same case and fidelity.
+    block_cycles : int
+
+    Returns
+    -------
+    dict
+        ``per_cell`` (as in :func:`run_patch`, the time SEM from the k series summed cycle by
+        cycle), ``cells`` (each run's cell), ``cpu_time_s`` and ``cell_cycles`` (sums).
+    """
+    first = records[0]
+    cells = [dict(record["cells"][0], cell=k) for k, record in enumerate(records)]
+    summed = np.sum([record["total_dissipated_j"] for record in records], axis=0)
+    total = summarise_cycles(summed, first["freq_hz"], first["accel_g"], 1, block_cycles)
+    return {"per_cell": per_cell_ceq([c["ceq_cell_ns_m"] for c in cells], total), "cells": cells,
+            "cpu_time_s": float(sum(r["engine"]["cpu_time_s"] for r in records)),
+            "cell_cycles": int(sum(r["cell_cycles"] for r in records))}
+
+
+def same_packing_z(cells_a: list[dict], cells_b: list[dict]) -> np.ndarray:
+    """Differences of C_eq between two scenes' cells with the same packings, in combined SEMs.
+
+    Cell i of one scene is compared with cell i of the other (the same replicate packing);
+    as many cells as the smaller scene holds.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        (C_a - C_b) / sqrt(SEM_a^2 + SEM_b^2); 0 where both are identical.
+    """
+    n = min(len(cells_a), len(cells_b))
+    z = np.zeros(n)
+    for i in range(n):
+        a, b = cells_a[i], cells_b[i]
+        if a["seed"] != b["seed"]:
+            raise ValueError(f"cell {i}: packing seeds differ ({a['seed']} vs {b['seed']})")
+        difference = a["ceq_cell_ns_m"] - b["ceq_cell_ns_m"]
+        if difference != 0.0:
+            z[i] = difference / math.hypot(a["ceq_cell_sem_ns_m"], b["ceq_cell_sem_ns_m"])
+    return z
+
+
+def packing_scatter(cells: list[dict]) -> dict:
+    """How much C_eq varies from packing to packing, beyond each cell's cycle-to-cycle noise.
+
+    Returns
+    -------
+    dict
+        ``std_cells_ns_m`` (observed standard deviation over cells), ``rms_sem_ns_m`` (root mean
+        square of the cells' time SEMs), ``std_packing_ns_m`` = sqrt(max(0, std^2 - rms_sem^2)),
+        all N s/m.
+    """
+    ceq = np.array([c["ceq_cell_ns_m"] for c in cells])
+    sem = np.array([c["ceq_cell_sem_ns_m"] for c in cells])
+    std = float(ceq.std(ddof=1))
+    rms = float(np.sqrt(np.mean(sem**2)))
+    return {"std_cells_ns_m": std, "rms_sem_ns_m": rms,
+            "std_packing_ns_m": math.sqrt(max(0.0, std**2 - rms**2))}
