@@ -57,6 +57,7 @@ include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/optimise.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/validate.smk"
+include: "workflow/rules/fidelity.smk"
 
 
 rule all:

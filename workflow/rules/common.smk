@@ -1,6 +1,10 @@
 # The grid, wildcard constraints and the get_* helpers that the rules use. No rule lives here.
 
+import sys
+
 from pidpipe import campaign
+from pidpipe import fidelity_study
+from pidpipe.errors import ConfigError
 
 
 CASES = campaign.campaign_cases(config)
@@ -100,3 +104,38 @@ def get_validation_packings():
     fills = sorted({campaign.CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
                     for c in config["validation"]["cases"]})
     return [f"results/packings/{packing_id}.json" for packing_id in fills]
+
+
+# The fidelity study (workflow/rules/fidelity.smk): planned and validated here, so that a bad
+# reference or variant stops every run before any job, naming its key.
+
+try:
+    FIDELITY_STUDY = fidelity_study.plan_study(config)
+except ConfigError as error:
+    sys.exit(f"pidpipe: invalid config: {error}")
+
+def get_fidelity_records():
+    """The record of every (setting, case) of the study, the reference's first."""
+    return [f"results/fidelity/cases/{variant}/{case_id}.json"
+            for variant, case_id in FIDELITY_STUDY.jobs]
+
+
+def get_fidelity_jobs():
+    """(setting, case id) of each record of get_fidelity_records(), in the same order."""
+    return [[variant, case_id] for variant, case_id in FIDELITY_STUDY.jobs]
+
+
+def get_fidelity_case_config(wildcards):
+    """The case stage's config of one setting (reference or variant)."""
+    return FIDELITY_STUDY.case_configs[wildcards.variant]
+
+
+def get_fidelity_priority(wildcards):
+    """Planned time steps of a run, in millions: the costliest runs start first."""
+    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
+    return fidelity_study.planned_steps(FIDELITY_STUDY.case_configs[wildcards.variant], case) / 1e6
+
+
+def get_fidelity_variants():
+    """Every setting's name, label, overrides and merged knob values (for the summary)."""
+    return fidelity_study.variant_params(FIDELITY_STUDY)
