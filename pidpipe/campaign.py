@@ -63,7 +63,8 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
     "case": {
         "geometry": ["cell_inscribed_diameter_m", "core_height_m", "coupon_n_cells"],
         "fidelity": ["timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
-                     "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction"],
+                     "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction",
+                     "target_relative_sem", "max_measured_cycles"],
     },
 }
 
@@ -312,6 +313,7 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
     PackingError
         The packing does not fit or has not settled.
     """
+    from pidpipe.adaptive import run_to_target
     from pidpipe.case import run_case, write_record
     from pidpipe.engine import find_liggghts
     from pidpipe.packing import load_packing
@@ -322,7 +324,7 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_case(config, case, packing, workdir)
+            record = run_to_target(config, case, packing, workdir, run=run_case)
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)

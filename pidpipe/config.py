@@ -195,6 +195,11 @@ def _check_semantics(config: dict) -> None:
             if low <= 0:
                 raise ConfigError(f"config key environments[{index}].{band} = {env[band]!r} is not allowed: "
                                   "both ends must be > 0")
+    fidelity = config["fidelity"]
+    if fidelity["max_measured_cycles"] < fidelity["measured_cycles"]:
+        raise ConfigError(f"config key fidelity.max_measured_cycles = {fidelity['max_measured_cycles']!r} "
+                          f"is not allowed: it must be at least fidelity.measured_cycles "
+                          f"({fidelity['measured_cycles']})")
     cell_spheres = [spheres_for_fill(config, r) for r in config["grid"]["fill_pct"]]
     for fill, count in zip(config["grid"]["fill_pct"], cell_spheres):
         if count < 1:

@@ -67,3 +67,14 @@ def test_missing_binary_says_how_to_install(monkeypatch, tmp_path):
     deck.write_text("units si\n")
     with pytest.raises(EngineError, match="apt-get install -y --no-install-recommends liggghts"):
         run_deck(deck, "case")
+
+
+def test_a_longer_window_repeats_the_shorter_one_cycle_for_cycle(tmp_path, half_fill_packing):
+    # pidpipe.adaptive extends a case by running it again with more cycles: that only adds
+    # cycles if the same seed and packing replay the same trajectory.
+    case = CaseSpec(1000.0, 10.0, 50.0)
+    short = run_case(short_config(transient=3, measured=4), case, half_fill_packing, tmp_path / "short")
+    long = run_case(short_config(transient=3, measured=8), case, half_fill_packing, tmp_path / "long")
+    n = len(short["cycles"]["dissipated_j"])
+    assert long["cycles"]["dissipated_j"][:n] == short["cycles"]["dissipated_j"]
+    assert len(long["cycles"]["dissipated_j"]) == n + 4
