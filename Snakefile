@@ -58,6 +58,7 @@ include: "workflow/rules/optimise.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/validate.smk"
 include: "workflow/rules/fidelity.smk"
+include: "workflow/rules/scene.smk"
 
 
 rule all:

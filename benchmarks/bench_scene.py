@@ -6,7 +6,7 @@ The campaign shakes one cell and multiplies its C_eq by N = 441. For each case (
 19-cell patches with packings 0-6 and 0-18 in one run each, and the 441-cell coupon (21 x 21)
 with 441 distinct packings (replicates 0-440, each poured as the campaign pours it) in one
 run, its cost estimated first from a 3-cycle run (the window is shortened, and the table says
-so, if the full one would take more than COUPON_CPU_LIMIT_S of CPU).
+so, if the full one would take more than scene.coupon_cpu_limit_s of CPU).
 
 It prints (and appends to results.md) C_eq per cell with its standard errors over cycles and
 over cells, the coupon's C_eq (x 441), LIGGGHTS' CPU time, CPU per cell-cycle and the ratio to
@@ -14,13 +14,13 @@ one cell; the same packings compared across scenes; and the packing-to-packing s
 rows also go to results/scene/scene.csv and the figure to results/scene/scene.png.
 
 Run: .venv/bin/python benchmarks/bench_scene.py [--cases 500:5,1000:10] [--pour-workers 2]
-Packings are poured once into results/scene/packings and reused.
+The cases, fill, coupon layout and CPU limit are config.yaml's ``scene`` section (the same study
+as ``snakemake --cores 2 scene``). Packings are poured once into results/work/scene/packings and reused.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
@@ -30,13 +30,11 @@ import numpy as np
 from _record import append
 
 from pidpipe.config import load_config
-from pidpipe.scene import replicate_packings
-from pidpipe.scene_study import comparison_rows, plot_scenes, run_scene_study, scatter_row, scene_rows
+from pidpipe.scene_study import plot_scenes, write_scene_study
 
-OUT = Path(__file__).resolve().parent.parent / "results" / "scene"
-FILL_PCT = 50.0
-COUPON = (21, 21)
-COUPON_CPU_LIMIT_S = 1200.0
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "results" / "scene"
+WORK = ROOT / "results" / "work" / "scene"
 
 
 def _f(value: float, digits: str = ".4f") -> str:
@@ -45,27 +43,21 @@ def _f(value: float, digits: str = ".4f") -> str:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", default="500:5,1000:10", help="freq:accel pairs, comma separated")
+    parser.add_argument("--cases", default=None,
+                        help="freq:accel pairs, comma separated (default: config.yaml's scene.cases)")
     parser.add_argument("--pour-workers", type=int, default=1, help="pours run at once (<= 2)")
     args = parser.parse_args(argv)
     config = load_config()
+    if args.cases:
+        config["scene"]["cases"] = [dict(zip(("freq_hz", "accel_g"), map(float, pair.split(":"))))
+                                    for pair in args.cases.split(",")]
     n_coupon = int(config["geometry"]["coupon_n_cells"])
-    packings, pour_cpu = replicate_packings(config, FILL_PCT, COUPON[0] * COUPON[1],
-                                            OUT / "packings", workers=args.pour_workers)
-    pour_s = float(np.mean(list(pour_cpu.values()))) if pour_cpu else float("nan")
-    rows, compared, scatter = [], [], []
-    for pair in args.cases.split(","):
-        freq, accel = (float(v) for v in pair.split(":"))
-        result = run_scene_study(config, freq, accel, packings, OUT, coupon=COUPON,
-                                 coupon_cpu_limit_s=COUPON_CPU_LIMIT_S)
-        rows += scene_rows(result, n_coupon)
-        compared += comparison_rows(result)
-        scatter.append(scatter_row(result))
-    with open(OUT / "scene.csv", "w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    study = write_scene_study(config, OUT / "scene.csv", OUT / "scene_comparisons.csv", WORK,
+                              workers=args.pour_workers)
+    rows, compared, scatter = study["rows"], study["comparisons"], study["scatter"]
     plot_scenes(rows, OUT / "scene.png")
+    pour_cpu = study["pour_cpu_s"]
+    pour_s = float(np.mean(list(pour_cpu.values()))) if pour_cpu else float("nan")
 
     fid = config["fidelity"]
     lines = ["| case | scene | cells | C_eq per cell (N s/m) | SEM over cycles | SEM over cells | "
@@ -77,7 +69,7 @@ def main(argv: list[str] | None = None) -> None:
                      f"{r['ceq_coupon_ns_m']:.1f} +- {r['sem_coupon_ns_m']:.1f} | {r['cpu_s']:.1f} | "
                      f"{r['cpu_ms_per_cell_cycle']:.2f} | {r['cpu_ratio_to_one_cell']:.1f} | "
                      f"{r['cells'] * pour_s:.0f} |")
-    lines += ["", f"50 % fill ({packings[0].n_spheres} spheres per cell), default fidelity (dt = "
+    lines += ["", f"{config['scene']['fill_pct']:g} % fill ({study['n_spheres']} spheres per cell), fidelity (dt = "
               f"{fid['timestep_rayleigh_fraction']} Rayleigh times, transient >= {fid['transient_cycles']} "
               f"cycles and >= {fid['transient_min_time_s']} s, {fid['measured_cycles']} measured cycles, "
               f"SEM from {fid['sem_block_cycles']}-cycle blocks). Every scene runs the patch deck; "

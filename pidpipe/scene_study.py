@@ -70,9 +70,9 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
     dict
         ``scenes`` (records by scene name) and ``singles`` (the records of the runs alone).
     """
-    if singles < 7 or len(packings) < coupon[0] * coupon[1]:
-        raise ValueError(f"the study needs >= 7 singles and {coupon[0] * coupon[1]} packings, "
-                         f"got {singles} and {len(packings)}")
+    if singles < 7 or len(packings) < max(singles, 19, coupon[0] * coupon[1]):
+        raise ValueError(f"the study needs >= 7 singles and max(singles, 19, coupon cells) "
+                         f"packings, got {singles} singles and {len(packings)} packings")
     folder = Path(folder)
     cell = cell_from_config(config)
     tag = f"f{freq_hz:g}Hz_G{accel_g:g}"
@@ -235,3 +235,73 @@ def plot_scenes(rows: list[dict], path: str | Path) -> Path:
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def write_scene_study(config: dict, table_path: str | Path, comparisons_path: str | Path,
+                      folder: str | Path, workers: int = 1) -> dict:
+    """The whole study of ``config["scene"]``: pour (or reuse) the packings, run every case's
+    scenes, write the scene table and the comparisons as CSV.
+
+    Parameters
+    ----------
+    config : dict
+        Validated config with its ``scene`` section.
+    table_path, comparisons_path : path
+        CSV outputs: :func:`scene_rows` and :func:`comparison_rows` of every case.
+    folder : path
+        Packings (``folder/packings``), runs and records.
+    workers : int
+        Pours run at once.
+
+    Returns
+    -------
+    dict
+        ``rows``, ``comparisons``, ``scatter`` (:func:`scatter_row` per case), ``pour_cpu_s``
+        (by replicate), ``n_spheres`` (per cell).
+    """
+    import csv
+
+    from pidpipe.scene import replicate_packings
+
+    settings = config["scene"]
+    coupon = (int(settings["coupon_columns"]), int(settings["coupon_rows"]))
+    n_packings = max(int(settings["singles"]), coupon[0] * coupon[1])
+    packings, pour_cpu = replicate_packings(config, float(settings["fill_pct"]), n_packings,
+                                            Path(folder) / "packings", workers=workers)
+    rows, compared, scatter = [], [], []
+    for case in settings["cases"]:
+        result = run_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]), packings,
+                                 folder, singles=int(settings["singles"]), coupon=coupon,
+                                 coupon_cpu_limit_s=float(settings["coupon_cpu_limit_s"]))
+        rows += scene_rows(result, int(config["geometry"]["coupon_n_cells"]))
+        compared += comparison_rows(result)
+        scatter.append(scatter_row(result))
+    for path, table in ((table_path, rows), (comparisons_path, compared)):
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".part")
+        with open(tmp, "w", newline="", encoding="utf-8") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(table[0]))
+            writer.writeheader()
+            writer.writerows(table)
+        tmp.replace(path)
+    return {"rows": rows, "comparisons": compared, "scatter": scatter, "pour_cpu_s": pour_cpu,
+            "n_spheres": packings[0].n_spheres}
+
+
+def read_scene_table(path: str | Path) -> list[dict]:
+    """Rows written by :func:`write_scene_study` (numbers as floats, ``cells`` as int)."""
+    import csv
+
+    with open(path, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    for row in rows:
+        for key, value in row.items():
+            if key not in ("scene", "label"):
+                row[key] = int(value) if key in ("cells", "measured_cycles") else float(value)
+    return rows
+
+
+def plot_table(table_path: str | Path, png: str | Path) -> Path:
+    """:func:`plot_scenes` of a scene table written by :func:`write_scene_study`."""
+    return plot_scenes(read_scene_table(table_path), png)

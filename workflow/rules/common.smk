@@ -139,3 +139,14 @@ def get_fidelity_priority(wildcards):
 def get_fidelity_variants():
     """Every setting's name, label, overrides and merged knob values (for the summary)."""
     return fidelity_study.variant_params(FIDELITY_STUDY)
+
+
+# The scene study (workflow/rules/scene.smk).
+
+
+def get_scene_config():
+    """The config values the scene study depends on: a packing's and a case's, and scene."""
+    packing = campaign.stage_config(config, "packing")
+    case = campaign.stage_config(config, "case")
+    return {**packing, **case, "fidelity": {**packing["fidelity"], **case["fidelity"]},
+            "scene": config["scene"]}
