@@ -62,3 +62,12 @@ def test_energy_drift_is_the_stored_share_of_the_dissipation():
     series = CycleSeries(wall_work_j=ed, gross_work_j=ed, energy_j=energy, dissipated_j=ed,
                          lowest_z_m=ed, highest_z_m=ed)
     assert energy_drift(series, 1) == pytest.approx((6.0 - 5.0) / 2.0)
+
+
+def test_cost_split_into_set_up_and_cycles():
+    from pidpipe.scene_study import split_cost
+
+    record = {"engine": {"cpu_time_s": 10.0, "wall_time_s": 20.0, "loop_time_s": 15.0},
+              "transient_cycles": 1, "measured_cycles": 2}
+    setup, per_cycle = split_cost(record)
+    assert setup == pytest.approx(2.5) and per_cycle == pytest.approx(7.5 / 3)
