@@ -8,72 +8,23 @@ config and packings that do not fit.
 
 from __future__ import annotations
 
-import os
-import re
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 
 from pidpipe.ceq_table import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, read_ceq_table
 from pidpipe.config import budget_spheres, full_cell_spheres, load_config
+from tests._snakemake import (LIGGGHTS, TEST_CONFIG, WORKFLOW_MARKS, planned_jobs, snakemake,
+                              write_config)
 
-REPO = Path(__file__).resolve().parent.parent
-SNAKEFILE = REPO / "Snakefile"
-TEST_CONFIG = REPO / ".test" / "config.yaml"
-SNAKEMAKE = Path(sys.executable).with_name("snakemake")
-LIGGGHTS = shutil.which("liggghts")
 FIDELITY_COLUMNS = ("dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
                     "transient_cycles", "measured_cycles", "sem_block_cycles", "seed")
 
-pytestmark = [
-    pytest.mark.engine,
-    pytest.mark.slow,
-    pytest.mark.skipif(LIGGGHTS is None, reason="LIGGGHTS is not installed (apt-get install -y "
-                       "--no-install-recommends liggghts); the workflow runs it for every case"),
-    pytest.mark.skipif(not SNAKEMAKE.is_file(), reason=f"snakemake is not installed next to {sys.executable}"),
-]
-
-
-def snakemake(workdir: Path, *args: str, env: dict | None = None) -> subprocess.CompletedProcess:
-    """Run the repository's Snakefile in ``workdir`` on 2 cores; stdout and stderr together."""
-    command = [str(SNAKEMAKE), "--snakefile", str(SNAKEFILE), "--directory", str(workdir),
-               "--cores", "2", *args]
-    return subprocess.run(command, cwd=workdir, env={**os.environ, **(env or {})}, text=True,
-                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=900)
-
-
-def planned_jobs(output: str) -> dict[str, int]:
-    """The 'Job stats' table of a (dry) run: rule name -> number of jobs."""
-    if "Nothing to be done" in output:
-        return {}
-    table = output.split("Job stats:", 1)[1]
-    counts = {}
-    for line in table.splitlines()[3:]:
-        match = re.fullmatch(r"(\w+)\s+(\d+)", line.strip())
-        if match is None:
-            break
-        counts[match[1]] = int(match[2])
-    counts.pop("total", None)
-    return counts
-
-
-def write_config(workdir: Path, **changes) -> dict:
-    """The reduced config with top-level sections updated, as workdir/config.yaml."""
-    config = yaml.safe_load(TEST_CONFIG.read_text())
-    for key, value in changes.items():
-        if isinstance(value, dict):
-            config.setdefault(key, {}).update(value)
-        else:
-            config[key] = value
-    (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-    return config
+pytestmark = WORKFLOW_MARKS
 
 
 @pytest.fixture(scope="module")
