@@ -27,7 +27,10 @@
 #
 # Resume: outputs are written atomically and each rule's params hold only the config values it
 # depends on, so a finished case is recomputed only when its own inputs change, and an
-# interrupted run resumes where it stopped.
+# interrupted run (Ctrl-C, kill) resumes where it stopped with a plain `snakemake --cores 2`:
+# profiles/default sets rerun-incomplete, so the jobs that were running are redone. After
+# kill -9 (or a power loss) run `snakemake --unlock` once first: Snakemake's lock is left behind
+# and cannot be told from a live run's (tests/test_interruption.py).
 
 import sys
 
