@@ -50,10 +50,13 @@ def render_shake_deck(config: dict, case: CaseSpec, packing: Packing, workdir: P
     values = common_values(config, packing.centres(), plan.timestep_s, "cell.stl", case.case_id,
                            "shake", simulation_box(cell, cell.lid_z_m, 2.0 * amplitude, radius),
                            thermo_every=plan.steps_per_cycle * max(1, cycles // 10))
-    values.update(amplitude_m=amplitude, period_s=period, omega_rad_s=omega, floor_z_m=cell.floor_z_m,
-                  velocity_amplitude_m_s=amplitude * omega, steps_per_cycle=plan.steps_per_cycle,
-                  total_steps=plan.steps_per_cycle * cycles, power_file=POWER_FILE,
-                  energy_file=ENERGY_FILE,
+    # Equal spheres: the centre of mass is the mean centre. Potential energy is measured from
+    # its starting height so that the 6 digits fix ave/time writes resolve its changes.
+    start_z = float(np.mean(packing.centres()[:, 2]))
+    values.update(amplitude_m=amplitude, period_s=period, omega_rad_s=omega,
+                  potential_reference_z_m=start_z, velocity_amplitude_m_s=amplitude * omega,
+                  steps_per_cycle=plan.steps_per_cycle, total_steps=plan.steps_per_cycle * cycles,
+                  power_file=POWER_FILE, energy_file=ENERGY_FILE,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=fidelity["timestep_rayleigh_fraction"] * (1.0 + 1e-6),
                   hertz_fraction_limit=HERTZ_FRACTION_LIMIT)
