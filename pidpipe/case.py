@@ -17,6 +17,7 @@ import numpy as np
 
 from pidpipe.cases import CaseSpec, regime
 from pidpipe.config import particle_properties
+from pidpipe.contact_energy import boundary_elastic_energy
 from pidpipe.damping import displacement_amplitude_m, summarise_cycles
 from pidpipe.decks import common_values, render, simulation_box
 from pidpipe.engine import run_deck
@@ -29,14 +30,21 @@ from pidpipe.steady_state import assess_steady_state
 
 POWER_FILE = "power.txt"
 ENERGY_FILE = "energy.txt"
-RECORD_VERSION = 2
+PAIR_CONTACT_FILE = "pair_contacts.dump"
+WALL_CONTACT_FILE = "wall_contacts.dump"
+RECORD_VERSION = 3
+"""3: energy_j includes the elastic energy held in the contacts (mechanical_j and elastic_j
+keep the parts), and the potential energy is measured from the packing's starting centre of mass."""
+
+
 def render_shake_deck(config: dict, case: CaseSpec, packing: Packing, workdir: Path) -> dict:
     """Write the closed-cell mesh and the shake deck of a case; return the run's plan.
 
     Returns
     -------
     dict
-        ``deck``, ``period_s``, ``steps_per_cycle``, ``cycles``, ``timestep`` (a TimestepPlan).
+        ``deck``, ``period_s``, ``steps_per_cycle``, ``cycles``, ``timestep`` (a TimestepPlan),
+        ``amplitude_m``.
     """
     cell = cell_from_config(config)
     fidelity = config["fidelity"]
@@ -57,12 +65,14 @@ def render_shake_deck(config: dict, case: CaseSpec, packing: Packing, workdir: P
                   potential_reference_z_m=start_z, velocity_amplitude_m_s=amplitude * omega,
                   steps_per_cycle=plan.steps_per_cycle, total_steps=plan.steps_per_cycle * cycles,
                   power_file=POWER_FILE, energy_file=ENERGY_FILE,
+                  pair_contact_file=PAIR_CONTACT_FILE, wall_contact_file=WALL_CONTACT_FILE,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=fidelity["timestep_rayleigh_fraction"] * (1.0 + 1e-6),
                   hertz_fraction_limit=HERTZ_FRACTION_LIMIT)
     deck = workdir / "shake.lmp"
     deck.write_text(render("shake.lmp.j2", values), encoding="utf-8")
     return {"deck": deck, "period_s": period, "cycles": cycles, "timestep": plan,
+            "steps_per_cycle": plan.steps_per_cycle,
             "amplitude_m": amplitude}
 
 
@@ -105,12 +115,15 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     check_packing(packing, case.case_id)
-    for stale in (POWER_FILE, ENERGY_FILE):
+    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE):
         (workdir / stale).unlink(missing_ok=True)
     plan = render_shake_deck(config, case, packing, workdir)
     engine = run_deck(plan["deck"], case.case_id)
+    boundaries = plan["steps_per_cycle"] * np.arange(plan["cycles"] + 1)
+    elastic = boundary_elastic_energy(workdir / PAIR_CONTACT_FILE, workdir / WALL_CONTACT_FILE,
+                                      config, boundaries)
     series = read_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"],
-                         plan["cycles"])
+                         plan["cycles"], elastic_j=elastic)
     fidelity = config["fidelity"]
     configured_transient = transient_cycles_for(config, case.freq_hz)
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,

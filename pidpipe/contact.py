@@ -11,6 +11,8 @@ For a pair (i, j), with overlap delta and effective radius R* and mass m*:
 - normal damping        gamma_n = -2 sqrt(5/6) beta sqrt(2 E* sqrt(R* delta) m*)   [kg/s]
 - tangential damping    gamma_t = -2 sqrt(5/6) beta sqrt(8 G* sqrt(R* delta) m*)  [kg/s]
 - beta = ln(e) / sqrt(ln(e)^2 + pi^2)
+- normal elastic energy  U_n = 8/15 E* sqrt(R*) delta^{5/2}     (the integral of k_n delta)  [J]
+- tangential spring energy U_t = 1/2 k_t |xi|^2, xi the stored tangential displacement      [J]
 
 This is SPEC.md's f_n = -(k delta^{3/2} + alpha sqrt(m* k) delta^{1/4} d(delta)/dt) with
 k = 4/3 E* sqrt(R*) and alpha = -ln(e) sqrt(5/(ln^2 e + pi^2)); for Hertz contact it
@@ -20,6 +22,8 @@ reproduces the restitution coefficient e exactly (the damping is self-similar in
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 STANDARD_GRAVITY_M_S2 = 9.81
 """Gravitational acceleration used throughout, as in SPEC.md (a = G * 9.81 m/s^2)."""
@@ -106,3 +110,94 @@ def hertz_contact_duration(mass_eff_kg: float, radius_eff_m: float, youngs_eff_p
     ``t_c = 2.8682 (m*^2 / (R* E*^2 v))^{1/5}``.
     """
     return 2.868265 * (mass_eff_kg**2 / (radius_eff_m * youngs_eff_pa**2 * impact_speed_m_s)) ** 0.2
+
+
+def hertz_normal_force(youngs_eff_pa: float, radius_eff_m: float, overlap_m):
+    """Elastic part of the Hertz normal force, ``4/3 E* sqrt(R*) delta^{3/2}`` in N (0 for delta <= 0).
+
+    Parameters
+    ----------
+    youngs_eff_pa : float
+        Effective Young's modulus E*, Pa.
+    radius_eff_m : float
+        Effective radius R*, m.
+    overlap_m : float or ndarray
+        Overlap delta, m; any shape.
+
+    Returns
+    -------
+    float or ndarray
+        The force, N, shaped as ``overlap_m``. This is LIGGGHTS' ``k_n delta`` (normal_model_hertz.h).
+    """
+    overlap = np.maximum(np.asarray(overlap_m, dtype=float), 0.0)
+    return 4.0 / 3.0 * youngs_eff_pa * np.sqrt(radius_eff_m) * overlap**1.5
+
+
+def hertz_normal_energy(youngs_eff_pa: float, radius_eff_m: float, overlap_m):
+    """Elastic energy of a Hertz contact, ``8/15 E* sqrt(R*) delta^{5/2}`` in J (0 for delta <= 0).
+
+    The integral of :func:`hertz_normal_force` from 0 to delta (the damping part of LIGGGHTS'
+    normal force does no conservative work and stores nothing).
+
+    Parameters
+    ----------
+    youngs_eff_pa : float
+        Effective Young's modulus E*, Pa.
+    radius_eff_m : float
+        Effective radius R*, m.
+    overlap_m : float or ndarray
+        Overlap delta, m; any shape.
+
+    Returns
+    -------
+    float or ndarray
+        Energy per contact, J, shaped as ``overlap_m``.
+    """
+    overlap = np.maximum(np.asarray(overlap_m, dtype=float), 0.0)
+    return 8.0 / 15.0 * youngs_eff_pa * np.sqrt(radius_eff_m) * overlap**2.5
+
+
+def tangential_stiffness(shear_eff_pa: float, radius_eff_m: float, overlap_m):
+    """Tangential spring stiffness of LIGGGHTS' hertz/history contact, ``8 G* sqrt(R* delta)`` in N/m.
+
+    Parameters
+    ----------
+    shear_eff_pa : float
+        Effective shear modulus G* (:func:`effective_shear_modulus`), Pa.
+    radius_eff_m : float
+        Effective radius R*, m.
+    overlap_m : float or ndarray
+        Overlap delta, m; any shape (0 stiffness for delta <= 0).
+    """
+    overlap = np.maximum(np.asarray(overlap_m, dtype=float), 0.0)
+    return 8.0 * shear_eff_pa * np.sqrt(radius_eff_m * overlap)
+
+
+def tangential_spring_energy(shear_eff_pa: float, radius_eff_m: float, overlap_m, displacement_m):
+    """Energy held in the tangential spring, ``1/2 k_t |xi|^2`` in J.
+
+    LIGGGHTS' ``tangential history`` stores the tangential displacement xi (m; the relative
+    tangential velocity integrated over the contact's life, kept in the tangent plane and
+    shortened so that k_t |xi| never exceeds mu |F_n|) and applies F_t = -k_t xi (plus damping
+    while it sticks), with k_t from :func:`tangential_stiffness` at the current overlap. As
+    k_t changes with the overlap this spring is not strictly conservative; 1/2 k_t |xi|^2 is the
+    energy it would give back if the contact unloaded tangentially at the present overlap.
+
+    Parameters
+    ----------
+    shear_eff_pa : float
+        Effective shear modulus G*, Pa.
+    radius_eff_m : float
+        Effective radius R*, m.
+    overlap_m : float or ndarray, shape (...)
+        Overlap delta, m.
+    displacement_m : ndarray, shape (..., 3)
+        Stored tangential displacement xi, m.
+
+    Returns
+    -------
+    float or ndarray, shape (...)
+        Energy per contact, J.
+    """
+    displacement = np.asarray(displacement_m, dtype=float)
+    return 0.5 * tangential_stiffness(shear_eff_pa, radius_eff_m, overlap_m) * np.sum(displacement**2, axis=-1)

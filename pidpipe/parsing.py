@@ -5,9 +5,16 @@ The shake deck writes two ``fix ave/time`` files, one row per cycle of the base 
 - the power file: the mean over the cycle of the power the walls put into the spheres, and of
   its absolute value (so mean * period is the work per cycle, and the gross work exchanged);
 - the energy file: at the end of each cycle the spheres' translational and rotational kinetic
-  energy and gravitational potential energy, and the lowest and highest sphere centre.
+  energy and gravitational potential energy (measured from the packing's starting centre of
+  mass in the shake deck, from the floor in the patch deck), and the lowest and highest sphere
+  centre.
 
-The energy dissipated in cycle k is the balance E_d,k = W_k - (E_k - E_{k-1}).
+The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
+boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
+each, from which :mod:`pidpipe.contact_energy` computes the elastic energy held in the contacts.
+
+The energy dissipated in cycle k is the balance E_d,k = W_k - (E_k - E_{k-1}), E the kinetic,
+rotational, potential and (where measured) elastic energy at the boundaries.
 """
 
 from __future__ import annotations
@@ -31,11 +38,18 @@ class CycleSeries:
     gross_work_j : ndarray, shape (n,)
         Integral of |power| over each cycle: the work the walls exchange with the spheres, J.
     energy_j : ndarray, shape (n + 1,)
-        Total mechanical energy (kinetic + rotational + potential) at cycle boundaries, J.
+        Energy at cycle boundaries, J: ``mechanical_j + elastic_j``, or ``mechanical_j`` alone
+        where the elastic energy was not measured.
     dissipated_j : ndarray, shape (n,)
-        Dissipated energy per cycle by the balance, J.
+        Dissipated energy per cycle by the balance, ``wall_work_j - diff(energy_j)``, J.
     lowest_z_m, highest_z_m : ndarray, shape (n,)
         Lowest and highest sphere centre at the end of each cycle, m.
+    mechanical_j : ndarray, shape (n + 1,)
+        Kinetic + rotational + gravitational potential energy at cycle boundaries, J (the
+        potential's zero is the deck's reference height). Defaults to ``energy_j``.
+    elastic_j : ndarray, shape (n + 1,)
+        Elastic energy held in the contacts at cycle boundaries, J; NaN where not measured
+        (the default).
     """
 
     wall_work_j: np.ndarray
@@ -44,6 +58,14 @@ class CycleSeries:
     dissipated_j: np.ndarray
     lowest_z_m: np.ndarray
     highest_z_m: np.ndarray
+    mechanical_j: np.ndarray | None = None
+    elastic_j: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.mechanical_j is None:
+            object.__setattr__(self, "mechanical_j", np.asarray(self.energy_j, dtype=float))
+        if self.elastic_j is None:
+            object.__setattr__(self, "elastic_j", np.full(np.shape(self.energy_j), np.nan))
 
     def as_record(self) -> dict:
         """Lists of floats, for JSON."""
@@ -82,7 +104,7 @@ def read_ave_time(path: str | Path, n_columns: int) -> np.ndarray:
 
 
 def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float,
-                expected_cycles: int) -> CycleSeries:
+                expected_cycles: int, elastic_j: np.ndarray | None = None) -> CycleSeries:
     """Per-cycle balance from the shake deck's two output files.
 
     Parameters
@@ -94,6 +116,10 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
     expected_cycles : int
         Cycles the deck ran; fewer rows means truncated output. The energy file has one row
         more: the state at step 0.
+    elastic_j : ndarray, shape (expected_cycles + 1,), optional
+        Elastic energy held in the contacts at each cycle boundary, from step 0, J
+        (:func:`pidpipe.contact_energy.boundary_elastic_energy`). Without it the balance leaves
+        out the elastic energy (NaN in ``elastic_j``).
     """
     power = read_ave_time(power_path, 3)
     energy = read_ave_time(energy_path, 6)
@@ -107,9 +133,83 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
     work = power[:, 1] * period_s
     gross = power[:, 2] * period_s
     mechanical = energy[:, 1:4].sum(axis=1)
-    return CycleSeries(wall_work_j=work, gross_work_j=gross, energy_j=mechanical,
-                       dissipated_j=work - np.diff(mechanical), lowest_z_m=energy[1:, 4],
-                       highest_z_m=energy[1:, 5])
+    total = mechanical
+    if elastic_j is not None:
+        elastic_j = np.asarray(elastic_j, dtype=float)
+        if elastic_j.shape != mechanical.shape:
+            raise ParseError(f"{elastic_j.size} elastic energies for the {mechanical.size} cycle "
+                             f"boundaries of {energy_path}")
+        total = mechanical + elastic_j
+    return CycleSeries(wall_work_j=work, gross_work_j=gross, energy_j=total,
+                       dissipated_j=work - np.diff(total), lowest_z_m=energy[1:, 4],
+                       highest_z_m=energy[1:, 5], mechanical_j=mechanical, elastic_j=elastic_j)
+
+
+CONTACT_COLUMNS = ("id_a", "id_b", "id_c", "shear_x", "shear_y", "shear_z", "overlap")
+"""Columns of the shake deck's contact dumps (``compute pair/gran/local`` and
+``wall/gran/local`` with ``id history delta``), in the order LIGGGHTS 3.8 writes them whatever
+the order of the keywords (measured): three ids (particle-particle: the two atom ids and a
+periodic flag; particle-wall: the mesh, the triangle and the atom id), the tangential history
+of ``tangential history`` (the stored tangential displacement, m) and the overlap, m."""
+
+
+def read_local_frames(path: str | Path, n_columns: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Every frame of a LIGGGHTS ``dump local`` file.
+
+    Returns
+    -------
+    steps : ndarray of int, shape (n_frames,)
+    frames : list of ndarray, each of shape (n_entries, n_columns)
+        The entries of each frame (a frame may hold none).
+
+    Raises
+    ------
+    ParseError
+        If the file is missing or holds no frame, a frame's header is malformed, a frame is
+        truncated or holds rows of another width, a value is not a finite number, or the steps
+        do not increase.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ParseError(f"LIGGGHTS output {path} is missing (did the run finish?)")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    steps, frames = [], []
+    at = 0
+    while at < len(lines):
+        if not lines[at].strip():
+            at += 1
+            continue
+        header = lines[at:at + 9]
+        if (len(header) < 9 or header[0].strip() != "ITEM: TIMESTEP"
+                or header[2].strip() != "ITEM: NUMBER OF ENTRIES"
+                or not header[4].startswith("ITEM: BOX BOUNDS") or not header[8].startswith("ITEM: ENTRIES")):
+            raise ParseError(f"{path}:{at + 1}: frame {len(frames)} has a malformed or truncated header")
+        try:
+            step, n_entries = int(header[1]), int(header[3])
+        except ValueError:
+            raise ParseError(f"{path}:{at + 2}: frame {len(frames)} has a malformed step or entry count") from None
+        if n_entries < 0:
+            raise ParseError(f"{path}:{at + 4}: frame {len(frames)} has {n_entries} entries")
+        body = lines[at + 9:at + 9 + n_entries]
+        rows = [line.split() for line in body]
+        if len(body) != n_entries or any(len(row) != n_columns for row in rows):
+            raise ParseError(f"{path}: frame {len(frames)} (step {step}) does not hold {n_entries} rows "
+                             f"of {n_columns} columns (truncated or corrupted output)")
+        try:
+            table = np.array(rows, dtype=float).reshape(n_entries, n_columns)
+        except ValueError:
+            raise ParseError(f"{path}: frame {len(frames)} (step {step}) holds a value that is not a number") from None
+        if not np.all(np.isfinite(table)):
+            raise ParseError(f"{path}: frame {len(frames)} (step {step}) holds a non-finite value: "
+                             "the run went unstable")
+        if steps and step <= steps[-1]:
+            raise ParseError(f"{path}: frame {len(frames)} is at step {step}, after step {steps[-1]}")
+        steps.append(step)
+        frames.append(table)
+        at += 9 + n_entries
+    if not frames:
+        raise ParseError(f"{path} holds no frame")
+    return np.array(steps, dtype=np.int64), frames
 
 
 SPHERE_COLUMNS = ("id", "x", "y", "z", "vx", "vy", "vz", "omegax", "omegay", "omegaz", "radius",
