@@ -200,4 +200,5 @@ def tangential_spring_energy(shear_eff_pa: float, radius_eff_m: float, overlap_m
         Energy per contact, J.
     """
     displacement = np.asarray(displacement_m, dtype=float)
-    return 0.5 * tangential_stiffness(shear_eff_pa, radius_eff_m, overlap_m) * np.sum(displacement**2, axis=-1)
+    stiffness = tangential_stiffness(shear_eff_pa, radius_eff_m, overlap_m)
+    return 0.5 * stiffness * np.sum(displacement**2, axis=-1)

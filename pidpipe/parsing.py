@@ -182,12 +182,15 @@ def read_local_frames(path: str | Path, n_columns: int) -> tuple[np.ndarray, lis
         header = lines[at:at + 9]
         if (len(header) < 9 or header[0].strip() != "ITEM: TIMESTEP"
                 or header[2].strip() != "ITEM: NUMBER OF ENTRIES"
-                or not header[4].startswith("ITEM: BOX BOUNDS") or not header[8].startswith("ITEM: ENTRIES")):
-            raise ParseError(f"{path}:{at + 1}: frame {len(frames)} has a malformed or truncated header")
+                or not header[4].startswith("ITEM: BOX BOUNDS")
+                or not header[8].startswith("ITEM: ENTRIES")):
+            raise ParseError(f"{path}:{at + 1}: frame {len(frames)} has a malformed or truncated "
+                             "header")
         try:
             step, n_entries = int(header[1]), int(header[3])
         except ValueError:
-            raise ParseError(f"{path}:{at + 2}: frame {len(frames)} has a malformed step or entry count") from None
+            raise ParseError(f"{path}:{at + 2}: frame {len(frames)} has a malformed step or "
+                             "entry count") from None
         if n_entries < 0:
             raise ParseError(f"{path}:{at + 4}: frame {len(frames)} has {n_entries} entries")
         body = lines[at + 9:at + 9 + n_entries]
@@ -198,7 +201,8 @@ def read_local_frames(path: str | Path, n_columns: int) -> tuple[np.ndarray, lis
         try:
             table = np.array(rows, dtype=float).reshape(n_entries, n_columns)
         except ValueError:
-            raise ParseError(f"{path}: frame {len(frames)} (step {step}) holds a value that is not a number") from None
+            raise ParseError(f"{path}: frame {len(frames)} (step {step}) holds a value that is not "
+                             "a number") from None
         if not np.all(np.isfinite(table)):
             raise ParseError(f"{path}: frame {len(frames)} (step {step}) holds a non-finite value: "
                              "the run went unstable")

@@ -28,7 +28,7 @@ def laws(config):
 @pytest.mark.parametrize("overlap", OVERLAPS_M)
 def test_hertz_energy_is_the_work_of_the_hertz_force(config, laws, kind, overlap):
     law = laws[kind]
-    work, error = quad(lambda d: law.a_n * d**1.5, 0.0, overlap, epsabs=0.0, epsrel=1e-12)
+    work, _ = quad(lambda d: law.a_n * d**1.5, 0.0, overlap, epsabs=0.0, epsrel=1e-12)
     elasticity = contact_elasticities(config)[kind]
     energy = hertz_normal_energy(elasticity.youngs_eff_pa, elasticity.radius_eff_m, overlap)
     assert energy == pytest.approx(work, rel=1e-9)
