@@ -60,6 +60,7 @@ def main(argv: list[str] | None = None) -> None:
     pour_s = float(np.mean(list(pour_cpu.values()))) if pour_cpu else float("nan")
 
     fid = config["fidelity"]
+    refused = "; ".join(f"replicate {k}: {why.split(': ', 1)[1]}" for k, why in study["refused"]) or "none"
     lines = ["| case | scene | cells | C_eq per cell (N s/m) | SEM over cycles | SEM over cells | "
              f"coupon C_eq = {n_coupon} x per cell (N s/m) | CPU s | CPU ms per cell-cycle | CPU / 1 cell | pour CPU s |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -73,7 +74,8 @@ def main(argv: list[str] | None = None) -> None:
               f"{fid['timestep_rayleigh_fraction']} Rayleigh times, transient >= {fid['transient_cycles']} "
               f"cycles and >= {fid['transient_min_time_s']} s, {fid['measured_cycles']} measured cycles, "
               f"SEM from {fid['sem_block_cycles']}-cycle blocks). Every scene runs the patch deck; "
-              "cell i holds replicate packing i. SEM over cycles: of the scene's total E_d series, / "
+              "cell i holds the i-th replicate packing the campaign's check accepts (refused pours: "
+              f"{refused}). SEM over cycles: of the scene's total E_d series, / "
               "cells (the noise of these very packings); SEM over cells: std over cells / sqrt(cells) "
               "(packing scatter included: the error as an estimate of another coupon's cells). The "
               "coupon column takes the SEM over cells when there are several, else over cycles (all "

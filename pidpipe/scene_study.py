@@ -1,6 +1,8 @@
 """The scene study (issue 5): one cell x N against replicates, patches and the whole coupon.
 
-For one case, every scene holds the same replicate packings (cell i = replicate i):
+For one case, every scene holds the same replicate packings: cell i holds the i-th replicate that
+the campaign's check accepts (:func:`usable_packings`; replicate i unless an earlier pour was
+refused), and the scenes are:
 
 - ``single``: replicate 0 alone (what the campaign runs);
 - ``replicates7`` / ``replicates19``: replicates 0-6 / 0-18, each alone in its own run;
@@ -252,6 +254,27 @@ def plot_scenes(rows: list[dict], path: str | Path) -> Path:
     return path
 
 
+def usable_packings(packings: list[Packing]) -> tuple[list[Packing], list[tuple[int, str]]]:
+    """The packings that the campaign's check accepts, in order, and the refused ones.
+
+    Returns
+    -------
+    usable : list of Packing
+    refused : list of (replicate, reason)
+    """
+    from pidpipe.errors import PackingError
+    from pidpipe.packing import check_packing
+
+    usable, refused = [], []
+    for replicate, packing in enumerate(packings):
+        try:
+            check_packing(packing, f"replicate {replicate}")
+            usable.append(packing)
+        except PackingError as error:
+            refused.append((replicate, str(error)))
+    return usable, refused
+
+
 def write_scene_study(config: dict, table_path: str | Path, comparisons_path: str | Path,
                       folder: str | Path, workers: int = 1) -> dict:
     """The whole study of ``config["scene"]``: pour (or reuse) the packings, run every case's
@@ -272,7 +295,8 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
     -------
     dict
         ``rows``, ``comparisons``, ``scatter`` (:func:`scatter_row` per case), ``pour_cpu_s``
-        (by replicate), ``n_spheres`` (per cell).
+        (by replicate), ``n_spheres`` (per cell), ``refused`` ((replicate, reason) of the pours
+        the campaign would refuse; the next replicates took their places).
     """
     import csv
 
@@ -281,8 +305,14 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
     settings = config["scene"]
     coupon = (int(settings["coupon_columns"]), int(settings["coupon_rows"]))
     n_packings = max(int(settings["singles"]), coupon[0] * coupon[1])
-    packings, pour_cpu = replicate_packings(config, float(settings["fill_pct"]), n_packings,
-                                            Path(folder) / "packings", workers=workers)
+    packings, refused, pour_cpu = [], [], {}
+    while len(packings) < n_packings:
+        # A pour the campaign would refuse (not settled, or above the lid) is left out and the
+        # next replicate takes its place.
+        poured, pour_cpu = replicate_packings(config, float(settings["fill_pct"]),
+                                              n_packings + len(refused), Path(folder) / "packings",
+                                              workers=workers)
+        packings, refused = usable_packings(poured)
     rows, compared, scatter = [], [], []
     for case in settings["cases"]:
         result = run_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]), packings,
@@ -301,7 +331,7 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
             writer.writerows(table)
         tmp.replace(path)
     return {"rows": rows, "comparisons": compared, "scatter": scatter, "pour_cpu_s": pour_cpu,
-            "n_spheres": packings[0].n_spheres}
+            "n_spheres": packings[0].n_spheres, "refused": refused}
 
 
 def read_scene_table(path: str | Path) -> list[dict]:

@@ -1,6 +1,6 @@
 # The scene study (not part of `all`): one cell x N against replicate cells shaken alone,
 # patches of 7 and 19 cells and the whole coupon in one LIGGGHTS run each, with the same
-# replicate packings (cell i = replicate i); C_eq per cell with its standard errors and the
+# replicate packings (cell i = the i-th replicate the packing check accepts); C_eq per cell with its standard errors and the
 # CPU time of each scene (config: scene).
 #   snakemake --cores 2 scene
 # One job runs every scene in turn (CPU times are measured one run at a time); it pours its
