@@ -103,6 +103,7 @@ def _processes_in(folder: Path) -> list[psutil.Process]:
 
 
 def _name(process: psutil.Process) -> str:
+    """A process's name, or "" once it has ended."""
     try:
         return process.name()
     except psutil.Error:  # it has ended
@@ -165,6 +166,7 @@ def _record_values(path: Path, ignore: tuple[str, ...] = ()) -> str:
 
 
 def _tail(path: Path, chars: int = 4000) -> str:
+    """The end of a Snakemake run's output file, for failure messages."""
     return path.read_text(encoding="utf-8", errors="replace")[-chars:] if path.is_file() else ""
 
 
