@@ -176,10 +176,17 @@ def run_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path
 
 
 def write_record(record: dict, path: str | Path) -> Path:
-    """Write a case record as JSON, atomically: a reader never sees half a file."""
+    """Write a case record as JSON, atomically and flushed to disk: a reader never sees half a
+    file, and an interrupted write leaves no temporary file behind."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    tmp.write_text(json.dumps(record, indent=1, allow_nan=True), encoding="utf-8")
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "w", encoding="utf-8") as handle:
+            handle.write(json.dumps(record, indent=1, allow_nan=True))
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
     return path
