@@ -165,12 +165,19 @@ def cell_boundary(points: np.ndarray, triangles: np.ndarray, cell: HexCell,
 
 
 def write_patch_stl(path: str | Path, cell: HexCell, centres_m: np.ndarray,
-                    top_z_m: float | None = None, closed: bool = True) -> Path:
-    """Write the patch's walls as an ASCII STL file (m) with meshio, atomically."""
+                    top_z_m: float | None = None, closed: bool = True,
+                    flip_normals: bool = False) -> Path:
+    """Write the patch's walls as an ASCII STL file (m) with meshio, atomically.
+
+    ``flip_normals`` reverses every triangle (a check that LIGGGHTS' walls act from both
+    sides, which a shared wall needs: it faces only one of its two cells).
+    """
     import meshio
 
     path = Path(path)
     points, triangles = patch_wall_triangles(cell, centres_m, top_z_m=top_z_m, closed=closed)
+    if flip_normals:
+        triangles = triangles[:, ::-1]
     tmp = path.with_name(path.name + ".part")
     meshio.write(tmp, meshio.Mesh(points, [("triangle", triangles)]), file_format="stl",
                  binary=False)

@@ -40,7 +40,8 @@ CONTAINMENT_TOL_RADII = 0.02
 
 
 def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: list[Packing],
-                      centres_m: np.ndarray, workdir: Path, label: str) -> dict:
+                      centres_m: np.ndarray, workdir: Path, label: str,
+                      flip_normals: bool = False) -> dict:
     """Write the patch mesh and deck; return the run's plan.
 
     Parameters
@@ -56,6 +57,8 @@ def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: li
     workdir : Path
     label : str
         Names the run in the deck and in error messages (letters, digits, _ and .).
+    flip_normals : bool
+        Write every wall triangle reversed (:func:`pidpipe.patch.write_patch_stl`).
 
     Returns
     -------
@@ -71,7 +74,7 @@ def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: li
     transient = transient_cycles_for(config, freq_hz)
     cycles = transient + int(config["fidelity"]["measured_cycles"])
     positions, cell_index = place_in_cells([p.centres() for p in packings], centres_m)
-    write_patch_stl(workdir / MESH_FILE, cell, centres_m)
+    write_patch_stl(workdir / MESH_FILE, cell, centres_m, flip_normals=flip_normals)
     values = common_values(config, positions, plan.timestep_s, MESH_FILE, label, "patch",
                            patch_box(cell, centres_m, cell.lid_z_m, 2.0 * amplitude, radius),
                            thermo_every=plan.steps_per_cycle * max(1, cycles // 10))
@@ -87,12 +90,13 @@ def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: li
 
 
 def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packing],
-              centres_m: np.ndarray, workdir: str | Path, label: str) -> dict:
+              centres_m: np.ndarray, workdir: str | Path, label: str,
+              flip_normals: bool = False) -> dict:
     """Shake a patch of cells in one LIGGGHTS run; per-cell and whole-patch E_d and C_eq.
 
     Parameters
     ----------
-    config, freq_hz, accel_g, packings, centres_m, label
+    config, freq_hz, accel_g, packings, centres_m, label, flip_normals
         As :func:`render_patch_deck`.
     workdir : path
         The run's own folder.
@@ -121,7 +125,8 @@ def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packi
         check_packing(packing, f"{label} cell {index}")
     for stale in (POWER_FILE, ENERGY_FILE, SPHERE_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_patch_deck(config, freq_hz, accel_g, packings, centres_m, workdir, label)
+    plan = render_patch_deck(config, freq_hz, accel_g, packings, centres_m, workdir, label,
+                             flip_normals)
     engine = run_deck(plan["deck"], label)
     cell = cell_from_config(config)
     total = read_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"], plan["cycles"])

@@ -6,7 +6,7 @@ import meshio
 import numpy as np
 import pytest
 
-from pidpipe.geometry import HexCell, cell_wall_triangles
+from pidpipe.geometry import HexCell, cell_wall_triangles, triangle_normals
 from pidpipe.patch import (cell_boundary, coupon_centres, patch_wall_triangles, place_in_cells,
                            ring_centres, spheres_in_own_cells, write_patch_stl)
 
@@ -110,3 +110,12 @@ def test_packings_are_placed_in_their_own_cells():
 def test_bad_ring_count_is_refused(bad):
     with pytest.raises(ValueError, match="rings"):
         ring_centres(CELL, bad)
+
+
+def test_flipped_patch_mesh_reverses_every_triangle(tmp_path):
+    centres = ring_centres(CELL, 1)
+    straight = meshio.read(write_patch_stl(tmp_path / "a.stl", CELL, centres))
+    flipped = meshio.read(write_patch_stl(tmp_path / "b.stl", CELL, centres, flip_normals=True))
+    a = triangle_normals(straight.points, straight.cells_dict["triangle"])
+    b = triangle_normals(flipped.points, flipped.cells_dict["triangle"])
+    assert np.allclose(a, -b)
