@@ -46,6 +46,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cases", default=None,
                         help="freq:accel pairs, comma separated (default: config.yaml's scene.cases)")
     parser.add_argument("--pour-workers", type=int, default=1, help="pours run at once (<= 2)")
+    parser.add_argument("--from-records", action="store_true",
+                        help="tabulate the records of the last run again instead of running")
     args = parser.parse_args(argv)
     config = load_config()
     if args.cases:
@@ -53,7 +55,7 @@ def main(argv: list[str] | None = None) -> None:
                                     for pair in args.cases.split(",")]
     n_coupon = int(config["geometry"]["coupon_n_cells"])
     study = write_scene_study(config, OUT / "scene.csv", OUT / "scene_comparisons.csv", WORK,
-                              workers=args.pour_workers)
+                              workers=args.pour_workers, from_records=args.from_records)
     rows, compared, scatter = study["rows"], study["comparisons"], study["scatter"]
     plot_scenes(rows, OUT / "scene.png")
     pour_cpu = study["pour_cpu_s"]
@@ -91,17 +93,23 @@ def main(argv: list[str] | None = None) -> None:
               "packing, over the cells whose C_eq is not bit for bit identical (identical: a cell at "
               "the origin whose arithmetic did not change). Rms z near 1 or below: the scenes differ "
               "by no more than cycle noise.", "",
-              "| case | std of C_eq over the coupon's cells | rms SEM of one cell | packing-to-packing std | "
-              "coupon C_eq per cell +- SEM over cycles | (single - coupon) / single's SEM | coupon drift | "
+              "| case | std of C_eq over the coupon's cells | run-to-run noise of one cell (pairs) | "
+              "packing-to-packing std | rms reported SEM of one cell | coupon C_eq per cell +- SEM over cycles | "
+              "single: (single - coupon) / its SEM, percentile among the coupon's cells | coupon drift | "
               "ledger mismatch / E_d | contained | coupon window |",
-              "|---|---|---|---|---|---|---|---|---|---|"]
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in scatter:
         lines.append(f"| {s['freq_hz']:g} Hz, {s['accel_g']:g} g | {s['std_cells_ns_m']:.4f} | "
-                     f"{s['rms_sem_ns_m']:.4f} | {s['std_packing_ns_m']:.4f} | "
+                     f"{s['run_noise_ns_m']:.4f} ({s['noise_pairs']}) | {s['std_packing_ns_m']:.4f} | "
+                     f"{s['rms_sem_ns_m']:.4f} | "
                      f"{s['coupon_ceq_cell_ns_m']:.4f} +- {s['coupon_sem_cycles_ns_m']:.4f} | "
-                     f"{s['single_minus_coupon_in_single_sems']:+.2f} | {s['drift']:+.3f} | "
-                     f"{s['ledger_mismatch_of_dissipation']:+.1e} | {'yes' if s['contained'] else 'NO'} | "
-                     f"{s['window']} |")
+                     f"{s['single_minus_coupon_in_single_sems']:+.2f}, {s['single_percentile_in_coupon']:.0f} % | "
+                     f"{s['drift']:+.3f} | {s['ledger_mismatch_of_dissipation']:+.1e} | "
+                     f"{'yes' if s['contained'] else 'NO'} | {s['window']} |")
+    lines += ["", "Run-to-run noise: sqrt(mean d^2 / 2) over the same packings' C_eq in two scenes "
+              "(coupon, 19-cell patch, alone; cells not bit for bit identical); packing-to-packing "
+              "std = sqrt(std over the coupon's cells^2 - noise^2): what one cell's C_eq misses the "
+              "coupon's mean cell by, beyond the noise of its run."]
     append("Scene: one cell x N against replicates, patches and the coupon (issue 5)",
            "python benchmarks/bench_scene.py " + " ".join(sys.argv[1:] if argv is None else argv), lines)
 

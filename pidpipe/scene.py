@@ -334,19 +334,57 @@ def same_packing_z(cells_a: list[dict], cells_b: list[dict]) -> np.ndarray:
     return z
 
 
-def packing_scatter(cells: list[dict]) -> dict:
-    """How much C_eq varies from packing to packing, beyond each cell's cycle-to-cycle noise.
+def packing_scatter(cells: list[dict], run_noise_ns_m: float | None = None) -> dict:
+    """How much C_eq varies from packing to packing, beyond the noise of one run.
+
+    Parameters
+    ----------
+    cells : list of dict
+        Per-cell summaries (``ceq_cell_ns_m``, ``ceq_cell_sem_ns_m``).
+    run_noise_ns_m : float, optional
+        Standard deviation of one cell's C_eq between runs of the same packing, N s/m (from
+        :func:`run_to_run_noise`); when not given, the cells' own SEMs stand for it.
 
     Returns
     -------
     dict
         ``std_cells_ns_m`` (observed standard deviation over cells), ``rms_sem_ns_m`` (root mean
-        square of the cells' time SEMs), ``std_packing_ns_m`` = sqrt(max(0, std^2 - rms_sem^2)),
-        all N s/m.
+        square of the cells' reported SEMs), ``run_noise_ns_m`` (what was subtracted) and
+        ``std_packing_ns_m`` = sqrt(max(0, std^2 - noise^2)), all N s/m.
     """
     ceq = np.array([c["ceq_cell_ns_m"] for c in cells])
     sem = np.array([c["ceq_cell_sem_ns_m"] for c in cells])
     std = float(ceq.std(ddof=1))
     rms = float(np.sqrt(np.mean(sem**2)))
-    return {"std_cells_ns_m": std, "rms_sem_ns_m": rms,
-            "std_packing_ns_m": math.sqrt(max(0.0, std**2 - rms**2))}
+    noise = rms if run_noise_ns_m is None else float(run_noise_ns_m)
+    return {"std_cells_ns_m": std, "rms_sem_ns_m": rms, "run_noise_ns_m": noise,
+            "std_packing_ns_m": math.sqrt(max(0.0, std**2 - noise**2))}
+
+
+def run_to_run_noise(pairs: list[tuple[list[dict], list[dict]]]) -> tuple[float, int]:
+    """Standard deviation of a cell's C_eq between two runs of the same packing.
+
+    Runs of the same packing differ in rounding only, and their trajectories diverge, so the
+    difference of their C_eq is run noise alone: its variance is twice that of one run.
+
+    Parameters
+    ----------
+    pairs : list of (cells_a, cells_b)
+        Scenes with the same packings cell by cell (:func:`same_packing_z`'s arguments).
+
+    Returns
+    -------
+    noise : float
+        sqrt(mean(d^2) / 2) over every pair of cells whose C_eq differ, N s/m.
+    n : int
+        Pairs used.
+    """
+    differences = []
+    for cells_a, cells_b in pairs:
+        for a, b in zip(cells_a, cells_b):
+            if a["seed"] != b["seed"]:
+                raise ValueError(f"packing seeds differ ({a['seed']} vs {b['seed']})")
+            if a["ceq_cell_ns_m"] != b["ceq_cell_ns_m"]:
+                differences.append(a["ceq_cell_ns_m"] - b["ceq_cell_ns_m"])
+    differences = np.asarray(differences)
+    return float(np.sqrt(np.mean(differences**2) / 2.0)), int(differences.size)

@@ -27,7 +27,8 @@ import numpy as np
 
 from pidpipe.packing import Packing, cell_from_config
 from pidpipe.patch import coupon_centres, ring_centres
-from pidpipe.scene import packing_scatter, run_patch, same_packing_z, separate_runs_scene
+from pidpipe.scene import (packing_scatter, run_patch, run_to_run_noise, same_packing_z,
+                           separate_runs_scene)
 
 SCENE_LABELS = {"single": "1 cell (replicate 0)",
                 "replicates7": "7 replicate cells, separate runs",
@@ -119,6 +120,30 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
     return {"freq_hz": freq_hz, "accel_g": accel_g, "scenes": scenes, "singles": alone}
 
 
+def load_scene_study(config: dict, freq_hz: float, accel_g: float, folder: str | Path) -> dict:
+    """The result of :func:`run_scene_study` again, from the records it kept (no new runs).
+
+    Raises
+    ------
+    FileNotFoundError
+        If a record is missing (the study did not run, or not to the end).
+    """
+    records = Path(folder) / "records"
+    tag = f"f{freq_hz:g}Hz_G{accel_g:g}"
+    settings = config["scene"]
+
+    def read(name: str) -> dict:
+        return json.loads((records / f"{tag}_{name}.json").read_text(encoding="utf-8"))
+
+    block = int(config["fidelity"]["sem_block_cycles"])
+    alone = [read(f"single{k}") for k in range(int(settings["singles"]))]
+    scenes = {"single": alone[0], "replicates7": separate_runs_scene(alone[:7], block)}
+    if len(alone) >= 19:
+        scenes["replicates19"] = separate_runs_scene(alone[:19], block)
+    scenes.update(patch7=read("patch7"), patch19=read("patch19"), coupon=read("coupon"))
+    return {"freq_hz": freq_hz, "accel_g": accel_g, "scenes": scenes, "singles": alone}
+
+
 def split_cost(record: dict) -> tuple[float, float]:
     """A run's CPU time split into set-up (s) and per cycle (s), by the share of its wall time
     that LIGGGHTS spent in its time loop."""
@@ -198,15 +223,27 @@ def comparison_rows(result: dict) -> list[dict]:
 
 
 def scatter_row(result: dict) -> dict:
-    """How C_eq varies over the coupon's cells, and the coupon run's own checks."""
-    coupon = result["scenes"]["coupon"]
-    single = result["scenes"]["single"]["cells"][0]
+    """How C_eq varies over the coupon's cells, and the coupon run's own checks.
+
+    The run noise of one cell comes from the same packings in different scenes (coupon, 19-cell
+    patch, alone: :func:`pidpipe.scene.run_to_run_noise`); the packing-to-packing scatter is
+    what the spread over the coupon's cells holds beyond it.
+    """
+    scenes = result["scenes"]
+    coupon = scenes["coupon"]
+    alone = [record["cells"][0] for record in result["singles"]]
+    noise, n_pairs = run_to_run_noise([(coupon["cells"], alone), (scenes["patch19"]["cells"], alone),
+                                       (coupon["cells"], scenes["patch19"]["cells"])])
+    single = scenes["single"]["cells"][0]
     per = coupon["per_cell"]
+    ceq = np.array([cell["ceq_cell_ns_m"] for cell in coupon["cells"]])
     return {"freq_hz": result["freq_hz"], "accel_g": result["accel_g"],
-            **packing_scatter(coupon["cells"]), "coupon_ceq_cell_ns_m": per["ceq_ns_m"],
+            **packing_scatter(coupon["cells"], noise), "noise_pairs": n_pairs,
+            "coupon_ceq_cell_ns_m": per["ceq_ns_m"],
             "coupon_sem_cycles_ns_m": per["sem_time_ns_m"],
             "single_minus_coupon_in_single_sems": (single["ceq_cell_ns_m"] - per["ceq_ns_m"])
             / single["ceq_cell_sem_ns_m"],
+            "single_percentile_in_coupon": float(100.0 * np.mean(ceq < single["ceq_cell_ns_m"])),
             "drift": coupon["total"]["energy_drift_fraction"],
             "ledger_mismatch_of_dissipation": coupon["ledger_mismatch"]["of_dissipation"],
             "contained": coupon["contained"], "window": coupon["window_note"]}
@@ -223,7 +260,7 @@ def plot_scenes(rows: list[dict], path: str | Path) -> Path:
 
     path = Path(path)
     cases = sorted({(r["freq_hz"], r["accel_g"]) for r in rows})
-    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 4.2), squeeze=False)
+    fig, axes = plt.subplots(1, len(cases), figsize=(5.5 * len(cases), 4.8), squeeze=False)
     for ax, (freq, accel) in zip(axes[0], cases):
         mine = [r for r in rows if (r["freq_hz"], r["accel_g"]) == (freq, accel)]
         cost = ax.twinx()
@@ -246,7 +283,8 @@ def plot_scenes(rows: list[dict], path: str | Path) -> Path:
         ax.set_title(f"{freq:g} Hz, {accel:g} g")
         handles = ax.get_legend_handles_labels()
         more = cost.get_legend_handles_labels()
-        ax.legend(handles[0] + more[0], handles[1] + more[1], fontsize=7, loc="upper left")
+        ax.legend(handles[0] + more[0], handles[1] + more[1], fontsize=7, ncol=2, loc="upper center",
+                  bbox_to_anchor=(0.5, -0.16))
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
@@ -276,7 +314,7 @@ def usable_packings(packings: list[Packing]) -> tuple[list[Packing], list[tuple[
 
 
 def write_scene_study(config: dict, table_path: str | Path, comparisons_path: str | Path,
-                      folder: str | Path, workers: int = 1) -> dict:
+                      folder: str | Path, workers: int = 1, from_records: bool = False) -> dict:
     """The whole study of ``config["scene"]``: pour (or reuse) the packings, run every case's
     scenes, write the scene table and the comparisons as CSV.
 
@@ -290,6 +328,9 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
         Packings (``folder/packings``), runs and records.
     workers : int
         Pours run at once.
+    from_records : bool
+        Tabulate the records of an earlier run of the study instead of running it
+        (:func:`load_scene_study`).
 
     Returns
     -------
@@ -315,9 +356,13 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
         packings, refused = usable_packings(poured)
     rows, compared, scatter = [], [], []
     for case in settings["cases"]:
-        result = run_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]), packings,
-                                 folder, singles=int(settings["singles"]), coupon=coupon,
-                                 coupon_cpu_limit_s=float(settings["coupon_cpu_limit_s"]))
+        if from_records:
+            result = load_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]), folder)
+        else:
+            result = run_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]),
+                                     packings, folder, singles=int(settings["singles"]),
+                                     coupon=coupon,
+                                     coupon_cpu_limit_s=float(settings["coupon_cpu_limit_s"]))
         rows += scene_rows(result, int(config["geometry"]["coupon_n_cells"]))
         compared += comparison_rows(result)
         scatter.append(scatter_row(result))

@@ -71,3 +71,15 @@ def test_cost_split_into_set_up_and_cycles():
               "transient_cycles": 1, "measured_cycles": 2}
     setup, per_cycle = split_cost(record)
     assert setup == pytest.approx(2.5) and per_cycle == pytest.approx(7.5 / 3)
+
+
+def test_run_to_run_noise_from_same_packing_pairs():
+    from pidpipe.scene import run_to_run_noise
+
+    a = [_cell(1, 0.10, 0.01), _cell(2, 0.12, 0.01), _cell(3, 0.20, 0.01)]
+    b = [_cell(1, 0.10, 0.01), _cell(2, 0.14, 0.01), _cell(3, 0.18, 0.01)]   # cell 1 identical
+    noise, n = run_to_run_noise([(a, b)])
+    assert n == 2 and noise == pytest.approx(math.sqrt((0.02**2 + 0.02**2) / 2 / 2))
+    scatter = packing_scatter(a, noise)
+    assert scatter["run_noise_ns_m"] == noise
+    assert scatter["std_packing_ns_m"] == pytest.approx(math.sqrt(np.var([0.1, 0.12, 0.2], ddof=1) - noise**2))
