@@ -1,10 +1,12 @@
 """A patch of cells in one LIGGGHTS run against the same packings shaken one cell at a time.
 
 The walls are rigid and prescribed, so spheres in different cells cannot interact: a cell of a
-patch must behave as the same packing alone. Cell 0 sits at the origin in both runs with the
-same wall triangles, so its arithmetic is the same and its series must match exactly; the other
-cells are translated, which changes the rounding, and DEM trajectories diverge from there, so
-they must agree within the statistics (3 combined standard errors, fixed before running).
+patch must behave as the same packing alone. In this 3-cell patch, cell 0 sits at the origin
+with the same wall triangles as alone and its arithmetic does not change, so its series must
+match exactly (in larger patches the box, and so the neighbour binning, changes, and even cell 0
+then differs by rounding: bench_scene.py counts such cells). The other cells are translated,
+which changes the rounding, and DEM trajectories diverge from there, so they must agree within
+the statistics (3 combined standard errors, fixed before running).
 """
 
 import math
