@@ -45,7 +45,7 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "ceq_cell_ns_m", "ceq_cell_sem_ns_m", "ceq_ref_ns_m", "ceq_ref_sem_ns_m",
     "reference_status", "reference_flags", "steady", "error_rel", "error_rel_sem",
     "error_over_sem", "energy_drift_fraction", "cpu_time_s", "cpu_rel_baseline", "wall_time_s",
-    "message",
+    "record_version", "message",
 )
 
 #: Columns of the summary per variant (results/fidelity/fidelity_summary.csv), in order.
@@ -78,6 +78,7 @@ _RECORD_COLUMNS = {
     "energy_drift_fraction": ("energy_drift_fraction",),
     "cpu_time_s": ("engine", "liggghts_cpu_time_s"),
     "wall_time_s": ("wall_time_s",),
+    "record_version": ("record_version",),
 }
 
 

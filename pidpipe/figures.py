@@ -290,7 +290,8 @@ def plot_fidelity(table, summary, error_target: float, stem: str | Path | None =
     labelled with their value.
 
     Summary panel: median |error| over the steady cases (bar: the standard error of the
-    case(s) it comes from) against the variant's total CPU time relative to the baseline.
+    case(s) it comes from) against the variant's total CPU time relative to the baseline;
+    filled markers meet the error target (summary column ``meets_target``), open ones do not.
 
     Parameters
     ----------
@@ -400,8 +401,8 @@ def _draw_fidelity_case(ax, rows, styles: dict, target_pct: float) -> None:
              else f"{first.freq_hz:g} Hz, {first.accel_g:g} g, {first.fill_pct:g} %")
     if first.reference_status != "ok":
         ax.set_facecolor("0.92")
-        title += f"\nreference {first.reference_status} ({first.reference_flags or '-'}): not summarised"
-        ax.set_title(title, color="tab:red")
+        title += f"\nreference {first.reference_flags or first.reference_status}: not summarised"
+        ax.set_title(title, color="tab:red", fontsize=9)
     else:
         ax.set_title(title)
 
@@ -417,13 +418,13 @@ def _draw_fidelity_summary(ax, summary, styles: dict, target_pct: float) -> None
         marker, colour = styles[row.variant]
         ax.errorbar(row.cpu_rel_baseline, 100.0 * row.median_abs_error,
                     yerr=100.0 * row.median_abs_error_sem, marker=marker, color=colour,
+                    markerfacecolor=colour if str(row.meets_target) == "True" else "white",
                     markersize=8, capsize=3, linestyle="none")
-        note = (f" {row.variant}" + (" (changes physics)" if row.changes_physics else "")
-                + (f" ({row.n_flagged} flagged)" if row.n_flagged else ""))
-        ax.annotate(note, (row.cpu_rel_baseline, 100.0 * row.median_abs_error), fontsize=8,
-                    textcoords="offset points", xytext=(5, 3), color=colour)
+    ax.plot([], [], marker="o", color="0.3", linestyle="none", label="filled: meets the target")
+    ax.plot([], [], marker="o", color="0.3", markerfacecolor="white", linestyle="none",
+            label="open: does not")
     ax.set_ylim(bottom=0.0)
     ax.set_xlabel("total CPU time / baseline variant's")
     ax.set_ylabel(r"median |error| in $C_\mathrm{eq}$ over steady cases (%)")
     ax.set_title("Summary per variant (steady cases only)")
-    ax.legend(loc="upper right", framealpha=0.8)
+    ax.legend(loc="upper left", framealpha=0.8)

@@ -2,6 +2,7 @@
 # setting and at each variant, on the campaign's replicate-0 packing of its fill; then the
 # table of errors in C_eq against CPU time, the summary per variant and the figure.
 #   snakemake --cores 2 fidelity
+#   snakemake --report report.html all fidelity   # the report with the study in it
 # Each (case, setting) is one job, the costliest first (priority = planned time steps), so both
 # cores stay busy to the end. A changed reference or variant reruns only its own jobs.
 
