@@ -71,8 +71,8 @@ class SteadyState:
     flags: list[str] = field(default_factory=list)
 
     def as_record(self) -> dict:
-        return {"transient_cycles": self.transient_cycles,
-                "detected_transient_cycles": self.detected_transient_cycles,
+        """The verdict's fields for a case record (the cycles discarded go under ``fidelity``)."""
+        return {"detected_transient_cycles": self.detected_transient_cycles,
                 "energy_drift_fraction": self.drift_fraction,
                 "halves_p_value": self.halves_p_value}
 
