@@ -6,6 +6,12 @@ kept. Pouring into the tall cell and then closing the lid is how a real cell is 
 also the only way to tell whether the spheres fit: when the settled pile rises above the lid
 the case is refused (:class:`~pidpipe.errors.PackingError`) before any shaking run, with the
 sphere count and the pile height it needs. The same seed gives the same packing.
+
+A pour whose fastest sphere is still above :data:`SETTLED_SPEED_M_S` after the configured
+settle time is not refused at once: the same LIGGGHTS run is repeated and goes on settling, in
+chunks of the settle time, up to :data:`MAX_FURTHER_SETTLING` chunks, and the packing is the
+state after the first chunk at which it has settled; ``Packing.settle_time_s`` says how long it
+settled. Only a pour still moving after the last chunk is refused by :func:`check_packing`.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from pidpipe.config import particle_properties, spheres_for_fill
 from pidpipe.damping import displacement_amplitude_m
 from pidpipe.decks import common_values, render, simulation_box
 from pidpipe.engine import run_deck
-from pidpipe.errors import PackingError, ParseError
+from pidpipe.errors import EngineError, PackingError, ParseError
 from pidpipe.fidelity import plan_timestep
 from pidpipe.geometry import HexCell, write_cell_stl
 
@@ -38,6 +44,11 @@ at 500 Hz, 5 g, 11 spheres, the potential energy fell by 8 cycles' worth of diss
 between cycles 35 and 42."""
 SETTLED_SPEED_M_S = 5e-3
 """A packing counts as settled when no sphere moves faster than this at the end, m/s."""
+MAX_FURTHER_SETTLING = 4
+"""Chunks of ``fidelity.settle_time_s`` that a pour not settled after the configured settle time
+goes on settling, at most. Of 441 pours of the default config at 50 % fill (seeds
+fidelity.seed + 0 .. 440) two had not settled after 0.15 s (fastest sphere 5.5 and 7.7 mm/s);
+one further chunk settled both (below 0.1 mm/s)."""
 
 
 @dataclass(frozen=True)
@@ -58,6 +69,8 @@ class Packing:
     max_speed_m_s : float
         Largest sphere speed when the pour ended, m/s.
     settle_time_s : float
+        How long the pile settled after tapping, s: ``fidelity.settle_time_s`` (rounded to whole
+        steps), or a whole multiple of it when the pour needed further settling.
     fill_pct : float
     """
 
@@ -167,16 +180,67 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     output.unlink(missing_ok=True)
     run_deck(deck, label)
     atoms = read_dump_atoms(output)
+    chunks = 1
+    if MAX_FURTHER_SETTLING > 0 and _max_speed(atoms) > SETTLED_SPEED_M_S:
+        atoms, chunks = _settle_further(deck, values, steps, atoms, label)
     centres, velocities = atoms[:, 1:4], atoms[:, 4:7]
     pile = float(centres[:, 2].max() + radius - cell.floor_z_m)
     return Packing(positions_m=centres.tolist(), radius_m=radius, n_spheres=n_spheres, seed=seed,
                    pile_height_m=pile, lid_height_m=cell.height_m,
                    max_speed_m_s=float(np.linalg.norm(velocities, axis=1).max()),
-                   settle_time_s=steps * plan.timestep_s, fill_pct=float(fill_pct))
+                   settle_time_s=chunks * steps * plan.timestep_s, fill_pct=float(fill_pct))
+
+
+def _max_speed(atoms: np.ndarray) -> float:
+    """Largest sphere speed of a dump frame (columns id x y z vx vy vz), m/s."""
+    return float(np.linalg.norm(atoms[:, 4:7], axis=1).max())
+
+
+def _settle_further(deck: Path, values: dict, steps: int, first: np.ndarray,
+                    label: str) -> tuple[np.ndarray, int]:
+    """Run a pour that had not settled again, going on settling; its first settled state.
+
+    The deck is the pour's own with :data:`MAX_FURTHER_SETTLING` chunks of ``steps`` appended
+    to the same run, the state dumped after each. LIGGGHTS is deterministic (one process), so
+    the run repeats the pour exactly up to the end of the configured settle time (checked: its
+    first dump must equal the pour's) and then continues from the full state, velocities,
+    spins and contact history included, as one longer pour would.
+
+    Returns
+    -------
+    atoms : ndarray
+        The dump frame after the first chunk at which no sphere is faster than
+        :data:`SETTLED_SPEED_M_S`, or after the last chunk if none is.
+    chunks : int
+        Settle periods the returned state settled for, the configured one included (2 ..
+        1 + MAX_FURTHER_SETTLING).
+    """
+    folder = deck.parent
+    further = [{"steps": steps, "output_file": f"settled_more{k}.dump"}
+               for k in range(1, MAX_FURTHER_SETTLING + 1)]
+    for path in [values["output_file"]] + [chunk["output_file"] for chunk in further]:
+        (folder / path).unlink(missing_ok=True)
+    deck.write_text(render("pack.lmp.j2", {**values, "further_settling": further}), encoding="utf-8")
+    run_deck(deck, label)
+    again = read_dump_atoms(folder / values["output_file"])
+    if not np.array_equal(again, first):
+        raise EngineError(
+            f"{label}: LIGGGHTS did not repeat its own pour (the settled state differs between "
+            f"two runs of the same deck), so the pour cannot be continued reproducibly; see "
+            f"{folder / 'screen.txt'}")
+    for chunks, chunk in enumerate(further, start=2):
+        atoms = read_dump_atoms(folder / chunk["output_file"])
+        if _max_speed(atoms) <= SETTLED_SPEED_M_S:
+            break
+    return atoms, chunks
 
 
 def check_packing(packing: Packing, case_label: str) -> None:
-    """Refuse a packing that does not fit below the lid or has not settled."""
+    """Refuse a packing that does not fit below the lid or has not settled.
+
+    A packing from :func:`pour` that has not settled has already settled for the configured
+    settle time and :data:`MAX_FURTHER_SETTLING` more periods of it.
+    """
     if not packing.fits:
         raise PackingError(
             f"case {case_label}: {packing.n_spheres} spheres do not fit in the cell: poured, they "
@@ -186,7 +250,8 @@ def check_packing(packing: Packing, case_label: str) -> None:
     if packing.max_speed_m_s > SETTLED_SPEED_M_S:
         raise PackingError(
             f"case {case_label}: the poured spheres had not settled after {packing.settle_time_s:.3g} s "
-            f"(fastest sphere {packing.max_speed_m_s:.3g} m/s > {SETTLED_SPEED_M_S} m/s); raise "
+            f"of settling, fidelity.settle_time_s and up to {MAX_FURTHER_SETTLING} more periods of "
+            f"it (fastest sphere {packing.max_speed_m_s:.3g} m/s > {SETTLED_SPEED_M_S} m/s); raise "
             "fidelity.settle_time_s")
 
 
