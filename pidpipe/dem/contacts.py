@@ -13,16 +13,26 @@ delta, relative velocity v_r = v_i - v_partner (the partner being a sphere or th
   tangential_model_history.h, fix_wall_gran.cpp.)
 
 Energy terms per contact and step n (J). Velocity Verlet moves a sphere by dt v_{n-1/2} under
-the mean force (F_{n-1} + F_n)/2, so the work of a force over step n is taken as
-(F_{n-1} + F_n)/2 . v_{n-1/2} dt with the relative velocity the step-n forces use:
+the mean force (F_{n-1} + F_n)/2, and the walls move by z_w(t_n) - z_w(t_{n-1}) = dt u_w
+(u_w the wall's mean velocity over the step, :func:`pidpipe.dem.walls.wall_step_velocity`).
+The work of a contact force over step n is therefore (F_{n-1} + F_n)/2 . u_r dt, with u_r the
+relative displacement of the step over dt: v_r for a sphere pair, but v_r + (v_w - u_w) e_z
+for a wall contact, whose force sees the wall velocity v_w(t_n) at the end of the step
+(LIGGGHTS' mesh velocity), half a step later than the wall's actual move:
 
-- normal damping: (gamma_n v_n |_{n-1} + gamma_n v_n |_n)/2 * v_n dt
-- tangential: the work the tangential force absorbs, -(F_t,n-1 + F_t,n)/2 . v_tr dt, minus the
+- normal damping: (gamma_n v_n |_{n-1} + gamma_n v_n |_n)/2 * u_n dt, u_n = u_r . n
+- tangential: the work the tangential force absorbs, -(F_t,n-1 + F_t,n)/2 . u_tr dt, minus the
   change of the elastic energy 1/2 k_t |s|^2 stored in the history spring. On a sliding step
-  it is the friction loss; on a sticking step it is the tangential damping gamma_t |v_tr|^2 dt
-  plus a remainder (the ``tangential_spring`` term), because k_t changes with delta and the
-  history is projected, so the Mindlin spring is not exactly conservative.
-- wall work: (F_wall,n-1 + F_wall,n)/2 . v_wall(t_n) dt, summed over the sphere-wall contacts.
+  it is the friction loss; on a sticking step it is the tangential damping
+  gamma_t v_tr . u_tr dt plus a remainder (the ``tangential_spring`` term), because k_t
+  changes with delta and the history is projected, so the Mindlin spring is not exactly
+  conservative.
+- wall work: (F_wall,n-1 + F_wall,n)/2 . u_w dt, summed over the sphere-wall contacts.
+
+With these, the wall work minus the change of the energy (:mod:`pidpipe.dem.energy`) and the
+sum of the terms differ only by the O(dt^2) error of the trapezoidal work of the elastic
+forces. Taking v_w(t_n) for the wall's move instead (as before) put a bias of
+(dt/2) * integral(F_wall,z a_w dt) per cycle into the wall work.
 
 Layout: component-first dense arrays (3, n_batch, n, n + 8); see :mod:`pidpipe.dem.state`.
 """
@@ -57,6 +67,11 @@ class Workspace:
         :func:`reset_accumulators` (see :func:`reduce_terms`, which turns them into J).
     step_wall_work, wall_work_acc : ndarray, shape (n_batch,)
         Work of the walls on the spheres this step, and since the last reset, J.
+    gross_wall_work_acc : ndarray, shape (n_batch,)
+        Sum of |step_wall_work| since the last reset: the work exchanged with the walls, J.
+    wall_velocity_lag : ndarray, shape (n_batch,)
+        v_w(t_n) - u_w of the last step: how much faster the wall contacts' force law sees the
+        wall move than it actually moved, m/s.
     wall_force_z : ndarray, shape (n_batch,)
         Total z force of the walls on the spheres, N (minus the force on the mesh).
     """
@@ -74,7 +89,7 @@ class Workspace:
         self.wall_reach = np.zeros((n_batch, 1, N_WALLS))
         for name in ("vr", "t3", "t3b", "ft", "tangential_prev"):
             setattr(self, name, np.zeros(shape3))
-        for name in ("delta", "vn", "cr", "sq", "q", "kn", "gn", "fn", "s1", "s2", "s3",
+        for name in ("delta", "vn", "un", "cr", "sq", "q", "kn", "gn", "fn", "s1", "s2", "s3",
                      "ratio", "damping_prev", "stored2"):
             setattr(self, name, np.zeros(shape1))
         self.contact = np.zeros(shape1, dtype=bool)
@@ -86,6 +101,8 @@ class Workspace:
         self.terms_acc = np.zeros_like(self.terms)
         self.step_wall_work = np.zeros(n_batch)
         self.wall_work_acc = np.zeros(n_batch)
+        self.gross_wall_work_acc = np.zeros(n_batch)
+        self.wall_velocity_lag = np.zeros(n_batch)
         self.wall_force_z = np.zeros(n_batch)
         self.wall_force_z_prev = np.zeros(n_batch)
         self.kick = np.zeros((3, n_batch, n))         # integrator scratch
@@ -109,7 +126,8 @@ class Workspace:
 
 
 def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarray,
-                   wall_v_m_s: np.ndarray, update_history: bool = True) -> None:
+                   wall_v_m_s: np.ndarray, wall_step_v_m_s: np.ndarray | None = None,
+                   update_history: bool = True) -> None:
     """Evaluate all contact forces and torques (and gravity) at the current state.
 
     Fills ``state.force`` and ``state.torque``, updates ``state.shear`` and
@@ -124,7 +142,11 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
         must be the ones ``ws`` was built with.
     ws : Workspace
     wall_z_m, wall_v_m_s : ndarray, shape (n_batch,)
-        Wall displacement (m) and velocity (m/s) along z.
+        Wall displacement (m) and velocity (m/s) along z at the end of the step; the forces
+        use this velocity.
+    wall_step_v_m_s : ndarray, shape (n_batch,), optional
+        The wall's displacement over the step divided by dt, m/s, for the energy terms and the
+        wall work; ``wall_v_m_s`` if not given.
     update_history : bool
         Accumulate the tangential history (False for the set-up evaluation, as LIGGGHTS).
     """
@@ -132,6 +154,8 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     dt = scene.timestep_s
     radius = scene.radius_m
     en, vr, t3, t3b = ws.en, ws.vr, ws.t3, ws.t3b
+    wall_step_v = wall_v_m_s if wall_step_v_m_s is None else wall_step_v_m_s
+    np.subtract(wall_v_m_s, wall_step_v, out=ws.wall_velocity_lag)
     delta, s1 = ws.delta, ws.s1
 
     # --- geometry: normals and overlaps ---------------------------------------------------
@@ -177,7 +201,8 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     ws.fn -= s1
     terms = ws.terms
     np.add(ws.damping_prev, s1, out=terms[0])
-    terms[0] *= ws.vn
+    _displacement_normal_rate(ws)
+    terms[0] *= ws.un
     ws.damping_prev, ws.s1 = s1, ws.damping_prev      # keep this step's damping force
     np.multiply(en, ws.fn, out=ws.ft)                 # ft: total contact force on i
 
@@ -197,12 +222,31 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     state.force[2].sum(axis=1, out=ws.wall_force_z)
     ws.wall_force_z += n * scene.mass_kg * scene.gravity_m_s2
     np.add(ws.wall_force_z_prev, ws.wall_force_z, out=ws.step_wall_work)
-    ws.step_wall_work *= wall_v_m_s * (0.5 * dt)
+    ws.step_wall_work *= wall_step_v * (0.5 * dt)
     ws.wall_work_acc += ws.step_wall_work
+    ws.gross_wall_work_acc += np.abs(ws.step_wall_work)
     if scene.friction:
         ws.terms_acc += terms
     else:
         ws.terms_acc[0] += terms[0]
+
+
+def _displacement_normal_rate(ws: Workspace) -> None:
+    """``ws.un``: normal relative displacement of the step over dt, u_n = v_n + lag n_z on walls.
+
+    For a sphere pair it is v_n; a wall moved by u_w dt, not by v_w(t_n) dt, over the step.
+    """
+    n = ws.n
+    np.copyto(ws.un, ws.vn)
+    ws.un[..., n:] += ws.wall_velocity_lag[:, None, None] * ws.normal_z
+
+
+def _add_wall_lag_work(ws: Workspace, force_z: np.ndarray, out: np.ndarray) -> None:
+    """Add F . (u_tr - v_tr) = F_z lag to the wall columns of ``out``, for a force F in a wall's
+    tangent plane (u_tr - v_tr = lag (e_z - n_z n) there); ``force_z`` and ``out`` have shape
+    (n_batch, n, n + 8)."""
+    n = ws.n
+    out[..., n:] += force_z[..., n:] * ws.wall_velocity_lag[:, None, None]
 
 
 def _tangential(scene: Scene, state: State, ws: Workspace, update_history: bool) -> None:
@@ -241,15 +285,18 @@ def _tangential(scene: Scene, state: State, ws: Workspace, update_history: bool)
     gamma_t[ws.slide] = 0.0
     np.multiply(vtr, gamma_t, out=t3b)
     t3 += t3b
-    # energy: 2 x dissipated = (-F_t,prev - F_t) . v_tr dt - (k_t|s|^2 - k_t|s|^2 prev)
+    # energy: 2 x dissipated = (-F_t,prev - F_t) . u_tr dt - (k_t|s|^2 - k_t|s|^2 prev)
     np.add(ws.tangential_prev, t3, out=t3b)
     np.einsum(_DOT, t3b, vtr, out=terms[1])
+    _add_wall_lag_work(ws, t3b[2], terms[1])
     terms[1] *= dt
     terms[1] -= stored2
     terms[1] += ws.stored2
     np.multiply(terms[1], ws.slide, out=terms[2])
     np.einsum(_DOT, vtr, vtr, out=terms[3])
-    terms[3] *= gamma_t
+    terms[3] *= gamma_t                               # gamma_t |v_tr|^2, and on walls
+    np.multiply(vtr[2], gamma_t, out=ratio)           # + gamma_t v_tr . (u_tr - v_tr)
+    _add_wall_lag_work(ws, ratio, terms[3])
     np.copyto(ws.tangential_prev, t3)
     ws.stored2, ws.s1 = stored2, ws.stored2
     np.multiply(ws.stored2, 0.5, out=state.tangential_energy)
@@ -261,8 +308,9 @@ def reduce_terms(terms: np.ndarray, n: int, dt: float) -> np.ndarray:
     Parameters
     ----------
     terms : ndarray, shape (4, n_batch, n, n + 8)
-        Per contact (summed over any number of steps): 0: (f_d,prev + f_d) v_n; 1: twice the
-        tangential dissipation; 2: its sliding part; 3: gamma_t |v_tr|^2 of sticking contacts.
+        Per contact (summed over any number of steps): 0: (f_d,prev + f_d) u_n; 1: twice the
+        tangential dissipation; 2: its sliding part; 3: gamma_t v_tr . u_tr of sticking
+        contacts (see the module docstring for u).
     n : int
         Spheres per cell.
     dt : float
@@ -290,6 +338,7 @@ def reset_accumulators(ws: "Workspace") -> None:
     """Zero the energy accumulated since the last reset (wall work and contact terms)."""
     ws.terms_acc.fill(0.0)
     ws.wall_work_acc.fill(0.0)
+    ws.gross_wall_work_acc.fill(0.0)
 
 
 def accumulated_dissipation(ws: "Workspace", dt: float) -> np.ndarray:

@@ -4,7 +4,9 @@ One step, in LIGGGHTS' order:
 
 1. initial_integrate: v += dt/2 F/m; x += dt v; omega += dt/2 T/I
 2. the clock advances; the walls move to z_w(t + dt) (``fix move/mesh`` initial_integrate)
-3. forces at the new positions with the half-step velocities (pair, walls, gravity)
+3. forces at the new positions with the half-step velocities (pair, walls, gravity); the
+   energy terms of the step use the wall's actual displacement over it
+   (:func:`pidpipe.dem.walls.wall_step_velocity`)
 4. final_integrate: v += dt/2 F/m; omega += dt/2 T/I
 """
 
@@ -15,7 +17,7 @@ import numpy as np
 from pidpipe.dem.contacts import Workspace, clear_step_terms, compute_forces
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State
-from pidpipe.dem.walls import wall_motion
+from pidpipe.dem.walls import wall_motion, wall_step_velocity
 
 
 def set_up(scene: Scene, state: State, ws: Workspace) -> None:
@@ -38,7 +40,8 @@ def step(scene: Scene, state: State, ws: Workspace) -> None:
         kick_force(state.torque, 0.5 * dt / scene.inertia_kg_m2, state.omega, kick)
     state.step += 1
     z, vz = wall_motion(state.step * dt, ws.amplitude_m, ws.omega_rad_s)
-    compute_forces(scene, state, ws, z, vz, update_history=True)
+    v_step = wall_step_velocity(state.step, dt, ws.amplitude_m, ws.omega_rad_s)
+    compute_forces(scene, state, ws, z, vz, wall_step_v_m_s=v_step, update_history=True)
     kick_force(state.force, half_over_m, v, kick)
     if scene.rotation:
         kick_force(state.torque, 0.5 * dt / scene.inertia_kg_m2, state.omega, kick)

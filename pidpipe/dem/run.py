@@ -17,7 +17,7 @@ import numpy as np
 
 from pidpipe.dem.contacts import (DISSIPATION_TERMS, Workspace, accumulated_dissipation,
                                   reset_accumulators)
-from pidpipe.dem.energy import ledger_energy
+from pidpipe.dem.energy import centre_of_mass_height, ledger_energy
 from pidpipe.dem.integrator import set_up, step
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State, initial_state
@@ -97,38 +97,45 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict
         Each of shape (n_batch, n_cycles), J, unless stated:
 
         - ``wall_work_j``: work of the walls on the spheres
+        - ``gross_work_j``: work exchanged with the walls, the sum of |work| of every step
         - ``energy_change_j``: change of K^ + P + U over the cycle (see :mod:`.energy`)
         - ``dissipated_balance_j``: wall work minus energy change
         - ``dissipated_terms_j``: the term-by-term total, the E_d of the cycle
         - ``<term>_<type>_j`` for every term of :data:`DISSIPATION_TERMS` and contact type
           ``pp`` (sphere-sphere) or ``pw`` (sphere-wall)
         - ``kinetic_translational_j``, ``kinetic_rotational_j``, ``potential_j``,
-          ``elastic_j``: plain energies at the cycle boundaries, shape (n_batch, n_cycles + 1)
+          ``elastic_j``: plain energies at the cycle boundaries, shape (n_batch, n_cycles + 1);
+          the potential energy is zero at the centre of mass the run started from
+        - ``ledger_energy_j``: K^ + P + U at the boundaries, shape (n_batch, n_cycles + 1)
         - ``centre_of_mass_z_m``: at the boundaries, shape (n_batch, n_cycles + 1), m
     """
     n_batch = state.n_batch
     steps = scene.steps_per_cycle
     work = np.zeros((n_batch, n_cycles))
+    gross = np.zeros((n_batch, n_cycles))
     terms = np.zeros((len(DISSIPATION_TERMS), len(CONTACT_TYPES), n_batch, n_cycles))
-    boundary = [ledger_energy(scene, state, ws)]
-    com = [state.x[2].mean(axis=1)]
+    reference = centre_of_mass_height(state)
+    boundary = [ledger_energy(scene, state, ws, reference)]
+    com = [reference]
     for cycle in range(n_cycles):
         reset_accumulators(ws)
         for _ in range(steps):
             step(scene, state, ws)
         work[:, cycle] = ws.wall_work_acc
+        gross[:, cycle] = ws.gross_wall_work_acc
         terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)
-        boundary.append(ledger_energy(scene, state, ws))
-        com.append(state.x[2].mean(axis=1))
+        boundary.append(ledger_energy(scene, state, ws, reference))
+        com.append(centre_of_mass_height(state))
     stack = {key: np.stack([b[key] for b in boundary], axis=1) for key in boundary[0]}
     change = np.diff(stack["ledger"], axis=1)
-    out = dict(wall_work_j=work, energy_change_j=change, dissipated_balance_j=work - change,
-               dissipated_terms_j=terms.sum(axis=(0, 1)))
+    out = dict(wall_work_j=work, gross_work_j=gross, energy_change_j=change,
+               dissipated_balance_j=work - change, dissipated_terms_j=terms.sum(axis=(0, 1)))
     for k, term in enumerate(DISSIPATION_TERMS):
         for c, ctype in enumerate(CONTACT_TYPES):
             out[f"{term}_{ctype}_j"] = terms[k, c]
     for key in ("kinetic_translational", "kinetic_rotational", "potential", "elastic"):
         out[f"{key}_j"] = stack[key]
+    out["ledger_energy_j"] = stack["ledger"]
     out["centre_of_mass_z_m"] = np.stack(com, axis=1)
     return out
 

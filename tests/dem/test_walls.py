@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.dem.walls import wall_motion
+from pidpipe.dem.walls import wall_motion, wall_step_velocity
 
 
 def test_the_base_motion_starts_at_rest_and_returns_after_a_period():
@@ -27,3 +27,18 @@ def test_wall_velocity_is_the_derivative_of_its_position():
     (zm,), _ = wall_motion(t - h, amplitude, omega)
     _, (v,) = wall_motion(t, amplitude, omega)
     assert (zp - zm) / (2 * h) == pytest.approx(v, rel=1e-6)
+
+
+def test_step_velocity_is_the_walls_move_over_the_step_divided_by_dt():
+    amplitude, omega, dt = np.array([2.5e-5]), 2 * math.pi * 100.0, 9e-7
+    for step in (1, 2777, 5557, 11113):
+        (z_now,), _ = wall_motion(step * dt, amplitude, omega)
+        (z_before,), _ = wall_motion((step - 1) * dt, amplitude, omega)
+        (mean_v,) = wall_step_velocity(step, dt, amplitude, omega)
+        assert mean_v * dt == pytest.approx(z_now - z_before, rel=1e-6)
+        # the end-of-step velocity the forces see runs half a step ahead of the mean, by
+        # a_w dt / 2 (to within 0.1 % of the largest such lag, W omega^2 dt / 2)
+        _, (v_end,) = wall_motion(step * dt, amplitude, omega)
+        accel = -amplitude[0] * omega**2 * math.cos(omega * step * dt)
+        largest_lag = amplitude[0] * omega**2 * dt / 2
+        assert v_end - mean_v == pytest.approx(0.5 * accel * dt, rel=0, abs=1e-3 * largest_lag)
