@@ -4,7 +4,10 @@ The record of :func:`simulate_cell` has the shape of the LIGGGHTS path's
 (:func:`pidpipe.case.run_case`) so that the two solvers compare case by case: the summary of
 the measured cycles from :func:`pidpipe.damping.summarise_cycles` at the top level, per-cycle
 arrays (wall work, energy change, dissipation by the balance and term by term, by contact
-type) under ``cycles``, and the fidelity settings.
+type) under ``cycles``, and the fidelity settings. The measured cycles are chosen by the same
+rule as the LIGGGHTS path's (:func:`pidpipe.steady_state.assess_steady_state`): the configured
+transient is a floor, and a longer transient that MSER detects in the run's own series (a bed
+that collapses a few cycles in, say) is discarded too.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State, initial_state
 from pidpipe.damping import summarise_cycles
 from pidpipe.errors import PackingError
+from pidpipe.steady_state import SteadyState, assess_steady_state
 
 SOLVER_NAME = "numpy-dem"
 CONTACT_TYPES: tuple[str, ...] = ("pp", "pw")
@@ -151,7 +155,9 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     positions_m : array_like, shape (n, 3) or (n_batch, n, 3)
         Settled packing(s) in the cell frame, m; several packings run as one batch.
     transient_cycles, measured_cycles : int
-        Cycles run and discarded, then cycles measured.
+        The configured transient (cycles discarded at least) and the measured cycles; the run
+        is their sum, and a cell discards max(transient_cycles, MSER's detected transient), as
+        :func:`pidpipe.case.run_case` does.
     block_cycles : int
         Cycles per block for the standard error of the mean.
     n_cells : int
@@ -164,7 +170,9 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     list of dict, one per cell of the batch
         ``solver``, ``freq_hz``, ``accel_g``, ``n_spheres``; the keys of
         :func:`pidpipe.damping.summarise_cycles` for the term-by-term E_d of the measured
-        cycles; ``balance`` (the same summary from the energy balance);
+        cycles; ``status`` and ``flags`` (the steady-state checks only), and the keys of
+        :meth:`pidpipe.steady_state.SteadyState.as_record`; ``balance`` (the same summary
+        from the energy balance);
         ``balance_mismatch_fraction`` (term-by-term minus balance, over the balance, summed over
         the measured cycles); ``wall_work_cycle_mean_j``; ``dissipated_by_term_j`` (measured
         mean per cycle of every term and contact type); ``cycles`` (every array of
@@ -176,13 +184,14 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     scene, state, ws = start(scene, positions_m)
     per_cycle = run_cycles(scene, state, ws, transient_cycles + measured_cycles)
     wall_time = time.perf_counter() - wall_start
-    measured = slice(transient_cycles, transient_cycles + measured_cycles)
     fidelity = fidelity_record(scene, state, transient_cycles, measured_cycles, block_cycles,
                                seed)
     records = []
     for b in range(state.n_batch):
         cycles = {key: value[b] for key, value in per_cycle.items()}
         accel = float(scene.accel_g[b])
+        steady = steady_state(cycles, transient_cycles, block_cycles)
+        measured = slice(steady.transient_cycles, None)
         terms = cycles["dissipated_terms_j"][measured]
         balance = cycles["dissipated_balance_j"][measured]
         by_term = {f"{term}_{ctype}_j": float(cycles[f"{term}_{ctype}_j"][measured].mean())
@@ -192,16 +201,35 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
             "freq_hz": scene.freq_hz,
             "accel_g": accel,
             "n_spheres": state.n_spheres,
+            "status": "flagged" if steady.flags else "ok",
+            "flags": list(steady.flags),
             **_summarise(terms, scene.freq_hz, accel, n_cells, block_cycles),
+            **steady.as_record(),
             "balance": _summarise(balance, scene.freq_hz, accel, n_cells, block_cycles),
             "balance_mismatch_fraction": float((terms.sum() - balance.sum()) / balance.sum()),
             "wall_work_cycle_mean_j": float(cycles["wall_work_j"][measured].mean()),
             "dissipated_by_term_j": by_term,
             "cycles": {key: value.tolist() for key, value in cycles.items()},
-            "fidelity": dict(fidelity),
+            "fidelity": dict(fidelity, transient_cycles=steady.transient_cycles),
             "wall_time_s": wall_time,
         })
     return records
+
+
+def steady_state(cycles: dict, configured_transient: int, block_cycles: int) -> SteadyState:
+    """The LIGGGHTS path's steady-state verdict on one cell's term-by-term E_d series.
+
+    Parameters
+    ----------
+    cycles : dict of ndarray
+        One cell's :func:`run_cycles` arrays (``dissipated_terms_j``, ``ledger_energy_j``).
+    configured_transient : int
+        The configured transient, a floor on the cycles discarded.
+    block_cycles : int
+        Cycles per block.
+    """
+    return assess_steady_state(cycles["dissipated_terms_j"], cycles["ledger_energy_j"],
+                               configured_transient, block_cycles)
 
 
 def fidelity_record(scene: Scene, state: State, transient_cycles: int, measured_cycles: int,
@@ -216,6 +244,7 @@ def fidelity_record(scene: Scene, state: State, transient_cycles: int, measured_
         timestep_rayleigh_fraction_config=scene.settings.get("timestep_rayleigh_fraction"),
         youngs_modulus_scale=scene.settings.get("youngs_modulus_scale", 1.0),
         transient_cycles=int(transient_cycles),
+        transient_cycles_configured=int(transient_cycles),
         measured_cycles=int(measured_cycles),
         sem_block_cycles=int(block_cycles),
         rotation=scene.rotation,

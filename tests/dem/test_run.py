@@ -9,6 +9,7 @@ import pytest
 
 from pidpipe.dem import advance, simulate_cell, start
 from pidpipe.errors import PackingError
+from pidpipe.steady_state import assess_steady_state
 from tests.dem.conftest import spec_scene
 
 
@@ -57,3 +58,22 @@ def test_spheres_outside_the_cell_are_refused(settled_11):
     bad[0, 2] = -20e-3
     with pytest.raises(PackingError, match="outside the cell"):
         start(spec_scene(), bad)
+
+
+def test_record_discards_the_transient_by_the_liggghts_paths_rule(settled_11):
+    """The cycles measured are those after max(configured, MSER-detected) transient cycles,
+    as in pidpipe.case.run_case, so that the two solvers average like with like."""
+    scene = spec_scene(freq_hz=1000.0, accel_g=10.0)
+    (record,) = simulate_cell(scene, settled_11, transient_cycles=1, measured_cycles=9,
+                              block_cycles=1)
+    terms = np.array(record["cycles"]["dissipated_terms_j"])
+    energy = np.array(record["cycles"]["ledger_energy_j"])
+    expected = assess_steady_state(terms, energy, 1, 1)
+    discarded = record["fidelity"]["transient_cycles"]
+    assert discarded == expected.transient_cycles == max(1, record["detected_transient_cycles"])
+    assert discarded > 1                  # the bed's start-up outlasts the configured cycle
+    assert record["fidelity"]["transient_cycles_configured"] == 1
+    assert record["n_cycles"] == 10 - discarded
+    assert record["ed_cycle_mean_j"] == pytest.approx(terms[discarded:].mean(), rel=1e-12)
+    assert record["flags"] == expected.flags
+    assert record["status"] == ("flagged" if expected.flags else "ok")
