@@ -4,7 +4,10 @@ Both solvers shake the same packing with the same config (materials, pairs, fide
 per case the table gives E_d per cycle and the cell's C_eq from each, with their standard
 errors (block means over the measured cycles), the ratio NumPy DEM / LIGGGHTS with its
 uncertainty, and whether the two agree within the combined uncertainty (difference no larger
-than ``coverage`` times the root-sum-square of the two standard errors; 2 by default).
+than ``coverage`` times the root-sum-square of the two standard errors; 2 by default). Each
+solver discards its own run's transient by the same rule (the configured count, or more if MSER
+detects a longer one, :func:`pidpipe.steady_state.assess_steady_state`); the table says how
+many cycles each discarded and which steady-state checks each run failed.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "ceq_cell_dem_ns_m", "ceq_cell_dem_sem_ns_m",
     "ratio_dem_over_liggghts", "ratio_sem", "difference_over_combined_sem", "agree",
     "dem_balance_mismatch_fraction", "liggghts_wall_time_s", "dem_wall_time_s",
+    "liggghts_transient_cycles", "dem_transient_cycles", "liggghts_flags", "dem_flags",
 )
 
 
@@ -72,7 +76,16 @@ def compare_records(liggghts: dict, dem: dict, coverage: float = 2.0) -> dict:
         "dem_balance_mismatch_fraction": float(dem.get("balance_mismatch_fraction", float("nan"))),
         "liggghts_wall_time_s": float(liggghts.get("wall_time_s", float("nan"))),
         "dem_wall_time_s": float(dem.get("wall_time_s", float("nan"))),
+        "liggghts_transient_cycles": transient_cycles(liggghts),
+        "dem_transient_cycles": transient_cycles(dem),
+        "liggghts_flags": ";".join(liggghts.get("flags", [])),
+        "dem_flags": ";".join(dem.get("flags", [])),
     }
+
+
+def transient_cycles(record: dict) -> int:
+    """Cycles a solver's record discarded before its measured window (-1 if not recorded)."""
+    return int(record.get("fidelity", {}).get("transient_cycles", -1))
 
 
 def validate_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path,

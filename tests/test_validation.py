@@ -30,3 +30,11 @@ def test_table_and_plot_are_written(tmp_path):
     table = write_table(rows, tmp_path / "validation.csv").read_text().splitlines()
     assert table[0].split(",") == list(TABLE_COLUMNS) and len(table) == 2
     assert plot_comparison(rows, tmp_path / "validation.png").stat().st_size > 1000
+
+
+def test_each_solvers_discarded_transient_and_flags_are_reported():
+    liggghts = _record(1.0e-8, 0.3e-9, fidelity={"transient_cycles": 10}, flags=["not_resolved"])
+    dem = _record(1.05e-8, 0.4e-9, fidelity={"transient_cycles": 5}, flags=[])
+    row = compare_records(liggghts, dem)
+    assert (row["liggghts_transient_cycles"], row["dem_transient_cycles"]) == (10, 5)
+    assert (row["liggghts_flags"], row["dem_flags"]) == ("not_resolved", "")
