@@ -89,7 +89,7 @@ class Workspace:
         self.wall_reach = np.zeros((n_batch, 1, N_WALLS))
         for name in ("vr", "t3", "t3b", "ft", "tangential_prev"):
             setattr(self, name, np.zeros(shape3))
-        for name in ("delta", "vn", "un", "cr", "sq", "q", "kn", "gn", "fn", "s1", "s2", "s3",
+        for name in ("delta", "vn", "cr", "sq", "q", "kn", "gn", "fn", "s1", "s2", "s3",
                      "ratio", "damping_prev", "stored2"):
             setattr(self, name, np.zeros(shape1))
         self.contact = np.zeros(shape1, dtype=bool)
@@ -201,8 +201,9 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     ws.fn -= s1
     terms = ws.terms
     np.add(ws.damping_prev, s1, out=terms[0])
-    _displacement_normal_rate(ws)
-    terms[0] *= ws.un
+    wall_lag_work = _wall_normal_lag_work(ws, terms[0])
+    terms[0] *= ws.vn
+    terms[0][..., n:] += wall_lag_work                # (f_d,prev + f_d) u_n
     ws.damping_prev, ws.s1 = s1, ws.damping_prev      # keep this step's damping force
     np.multiply(en, ws.fn, out=ws.ft)                 # ft: total contact force on i
 
@@ -231,14 +232,13 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
         ws.terms_acc[0] += terms[0]
 
 
-def _displacement_normal_rate(ws: Workspace) -> None:
-    """``ws.un``: normal relative displacement of the step over dt, u_n = v_n + lag n_z on walls.
+def _wall_normal_lag_work(ws: Workspace, normal_force: np.ndarray) -> np.ndarray:
+    """f (u_n - v_n) = f lag n_z for the wall columns of a normal force f (n_batch, n, n + 8).
 
-    For a sphere pair it is v_n; a wall moved by u_w dt, not by v_w(t_n) dt, over the step.
+    u_n - v_n is zero for a sphere pair; a wall moved by u_w dt, not by v_w(t_n) dt, over the
+    step. Returns shape (n_batch, n, 8).
     """
-    n = ws.n
-    np.copyto(ws.un, ws.vn)
-    ws.un[..., n:] += ws.wall_velocity_lag[:, None, None] * ws.normal_z
+    return normal_force[..., ws.n:] * (ws.wall_velocity_lag[:, None, None] * ws.normal_z)
 
 
 def _add_wall_lag_work(ws: Workspace, force_z: np.ndarray, out: np.ndarray) -> None:
@@ -295,7 +295,8 @@ def _tangential(scene: Scene, state: State, ws: Workspace, update_history: bool)
     np.multiply(terms[1], ws.slide, out=terms[2])
     np.einsum(_DOT, vtr, vtr, out=terms[3])
     terms[3] *= gamma_t                               # gamma_t |v_tr|^2, and on walls
-    np.multiply(vtr[2], gamma_t, out=ratio)           # + gamma_t v_tr . (u_tr - v_tr)
+    n = ws.n                                          # + gamma_t v_tr . (u_tr - v_tr)
+    np.multiply(vtr[2][..., n:], gamma_t[..., n:], out=ratio[..., n:])
     _add_wall_lag_work(ws, ratio, terms[3])
     np.copyto(ws.tangential_prev, t3)
     ws.stored2, ws.s1 = stored2, ws.stored2
