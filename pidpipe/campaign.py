@@ -64,7 +64,7 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
         "geometry": ["cell_inscribed_diameter_m", "core_height_m", "coupon_n_cells"],
         "fidelity": ["timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
                      "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction",
-                     "target_relative_sem", "max_measured_cycles"],
+                     "target_relative_sem", "max_measured_cycles", "cells_per_run"],
     },
 }
 
@@ -100,8 +100,19 @@ def workflow_config(raw: dict) -> dict:
 
 
 def campaign_cases(config: dict) -> list[CaseSpec]:
-    """Every case of the campaign: the grid times ``grid.replicates`` packings."""
+    """Every case of the campaign: the grid times ``grid.replicates`` runs."""
     return grid_cases(config, replicates=int(config["grid"].get("replicates", 1)))
+
+
+def case_packing_ids(config: dict, case: CaseSpec) -> list[str]:
+    """The packings a case shakes: one per cell of its run (``fidelity.cells_per_run``)."""
+    return case.packing_ids(int(config["fidelity"].get("cells_per_run", 1)))
+
+
+def campaign_packing_ids(config: dict) -> list[str]:
+    """Every packing the campaign's cases shake, sorted."""
+    return sorted({packing_id for case in campaign_cases(config)
+                   for packing_id in case_packing_ids(config, case)})
 
 
 def _sorted(value):
@@ -239,7 +250,8 @@ def pour_packing(config: dict, fill_pct: float, replicate: int, packing_path: st
                 packing.lid_height_m * 1e3, packing.max_speed_m_s, workdir)
 
 
-def check_packings(packing_paths: list[str], case_ids: list[str], report_path: str) -> None:
+def check_packings(packing_paths: list[str], case_ids: list[str], report_path: str,
+                   cells_per_run: int = 1) -> None:
     """Check every packing before any case is shaken; refuse all misfits in one message.
 
     Parameters
@@ -250,6 +262,8 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
         The campaign's cases; the message lists those that use a refused packing.
     report_path : path
         A tab-separated summary of every packing, written when all pass.
+    cells_per_run : int
+        Cells (packings) per case (``fidelity.cells_per_run``).
 
     Raises
     ------
@@ -260,7 +274,8 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
 
     cases_of: dict[str, list[str]] = {}
     for case_id in case_ids:
-        cases_of.setdefault(CaseSpec.from_id(case_id).packing_id, []).append(case_id)
+        for packing_id in CaseSpec.from_id(case_id).packing_ids(cells_per_run):
+            cases_of.setdefault(packing_id, []).append(case_id)
     rows, problems = [], []
     for path in packing_paths:
         packing = load_packing(path)
@@ -289,8 +304,8 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
 # Cases
 
 
-def simulate_case(config: dict, case_id: str, packing_path: str, record_path: str, workdir: str,
-                  log_path: str) -> dict:
+def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
+                  workdir: str, log_path: str) -> dict:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -301,8 +316,10 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
     config : dict
         The case stage's config (:func:`stage_config`).
     case_id : str
-    packing_path, record_path : path
-        The packing to shake (JSON) and the record to write (JSON, atomically).
+    packing_paths : list of path
+        The packings to shake (JSON), one per cell of the run (:func:`case_packing_ids`).
+    record_path : path
+        The record to write (JSON, atomically).
     workdir : path
         The case's folder for the deck, the mesh and LIGGGHTS' files.
     log_path : path
@@ -327,11 +344,11 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
 
     case = CaseSpec.from_id(case_id)
     find_liggghts()
-    packing = load_packing(packing_path)
+    packings = [load_packing(path) for path in packing_paths]
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(config, case, packing, workdir, run=run_case)
+            record = run_to_target(config, case, packings, workdir, run=run_case)
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
@@ -349,17 +366,23 @@ def simulate_case(config: dict, case_id: str, packing_path: str, record_path: st
         logger.error("%s", message)
         logger.error("the record %s is written with status failed so that the other cases and "
                      "the C_eq table go on; delete it to run the case again", record_path)
-        record = failed_record(config, case, packing.n_spheres, packing.seed, message)
+        record = failed_record(config, case, packings[0].n_spheres,
+                               [packing.seed for packing in packings], message)
         record["engine_attempts"] = ENGINE_ATTEMPTS
     write_record(record, record_path)
     return record
 
 
-def failed_record(config: dict, case: CaseSpec, n_spheres: int, seed: int, message: str) -> dict:
-    """The record of a case whose run failed: its coordinates, the settings it ran with, no values."""
+def failed_record(config: dict, case: CaseSpec, n_spheres: int, seeds: list[int],
+                  message: str) -> dict:
+    """The record of a case whose run failed: its coordinates, the settings it ran with, no values.
+
+    ``seeds`` are those of its packings, one per cell of the run.
+    """
     from pidpipe.fidelity import plan_timestep, transient_cycles_for
 
     fidelity = config["fidelity"]
+    seeds = [int(seed) for seed in seeds]
     nan = float("nan")
     return {
         "solver": "liggghts", "case_id": case.case_id, "freq_hz": case.freq_hz,
@@ -375,7 +398,9 @@ def failed_record(config: dict, case: CaseSpec, n_spheres: int, seed: int, messa
             "measured_cycles": int(fidelity["measured_cycles"]),
             "sem_block_cycles": int(fidelity["sem_block_cycles"]),
             "rotation": bool(fidelity["rotation"]), "friction": bool(fidelity["friction"]),
-            "seed": seed,
+            "cells_per_run": len(seeds),
+            "seed": seeds[0],
+            "seeds": seeds,
         },
         "engine": {},
         "wall_time_s": nan,
@@ -404,6 +429,7 @@ _SETTING_COLUMNS = {
     "rotation": ("fidelity", "rotation"),
     "friction": ("fidelity", "friction"),
     "seed": ("fidelity", "seed"),
+    "cells_per_run": ("fidelity", "cells_per_run"),
     "liggghts_version": ("engine", "liggghts_version"),
 }
 #: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.ceq_table`).
@@ -414,7 +440,7 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
-    "liggghts_version", "wall_time_s", "liggghts_wall_time_s", "message",
+    "cells_per_run", "liggghts_version", "wall_time_s", "liggghts_wall_time_s", "message",
 )
 
 

@@ -60,6 +60,17 @@ class CaseSpec:
         """Id of the packing this case shakes (packings depend on fill and replicate only)."""
         return f"r{format_number(self.fill_pct)}pct_rep{self.replicate}"
 
+    def packing_ids(self, cells_per_run: int = 1) -> list[str]:
+        """Ids of the packings this case shakes, one per cell of its run.
+
+        Replicate q of a case with k cells per run shakes packings q*k .. q*k + k - 1 of its fill,
+        so that no two cells of a campaign's grid point share a packing; with k = 1 this is
+        just :attr:`packing_id`.
+        """
+        first = self.replicate * cells_per_run
+        return [f"r{format_number(self.fill_pct)}pct_rep{index}"
+                for index in range(first, first + cells_per_run)]
+
     @classmethod
     def from_id(cls, case_id: str) -> "CaseSpec":
         """Parse a case id written by :attr:`case_id`."""

@@ -54,6 +54,7 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
     "transient_cycles",
     "measured_cycles",
     "seed",
+    "cells_per_run",
     "wall_time_s",
 )
 

@@ -63,13 +63,17 @@ def run_case_command(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     _check_case_arguments(args, config)
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
-    print(f"pidpipe: {case.case_id}: pouring the packing ...", file=sys.stderr, flush=True)
-    packing = pour(config, case.fill_pct, case.replicate, args.workdir / "pour")
-    check_packing(packing, case.case_id)
+    cells = int(config["fidelity"]["cells_per_run"])
+    replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
+    print(f"pidpipe: {case.case_id}: pouring {cells} packing(s) ...", file=sys.stderr, flush=True)
+    packings = [pour(config, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
+                for k in replicates]
+    for packing in packings:
+        check_packing(packing, case.case_id)
     cycles = transient_cycles_for(config, case.freq_hz) + config["fidelity"]["measured_cycles"]
-    print(f"pidpipe: {case.case_id}: shaking {packing.n_spheres} spheres for {cycles} cycles ...",
-          file=sys.stderr, flush=True)
-    record = run_case(config, case, packing, args.workdir / case.case_id)
+    print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
+          f"for {cycles} cycles ...", file=sys.stderr, flush=True)
+    record = run_case(config, case, packings, args.workdir / case.case_id)
     if args.record:
         write_record(record, args.record)
     print(format_result(record))
@@ -97,6 +101,11 @@ def format_result(record: dict) -> str:
         f"  engine          : {record['engine']['liggghts_version'].split(',')[0]}, "
         f"{record['engine']['liggghts_wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
     ]
+    if record.get("cells"):
+        lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "
+                        f"{record['ceq_cell_cycle_sem_ns_m']:.2g}, from the spread between cells "
+                        f"{record['ceq_cell_between_cells_sem_ns_m']:.2g} N s/m (the larger is "
+                        f"reported); seeds {', '.join(str(s) for s in fid['seeds'])}")
     return "\n".join(lines)
 
 

@@ -157,15 +157,28 @@ def triangle_normals(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None,
-                   closed: bool = True) -> Path:
+                   closed: bool = True, offsets_xy_m: np.ndarray | None = None) -> Path:
     """Write the cell walls as an ASCII STL file (coordinates in m) with meshio.
 
     The file is written to a temporary name and renamed, so a reader never sees half a mesh.
+
+    Parameters
+    ----------
+    top_z_m, closed
+        As :func:`cell_wall_triangles`.
+    offsets_xy_m : ndarray, shape (n_cells, 2), optional
+        For several separate cells in one mesh: where each cell's axis is, m (default: one
+        cell at the origin). The cells must not overlap.
     """
     import meshio
 
     path = Path(path)
     points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed)
+    if offsets_xy_m is not None:
+        offsets = np.asarray(offsets_xy_m, dtype=float).reshape(-1, 2)
+        n_points = len(points)
+        triangles = np.vstack([triangles + k * n_points for k in range(len(offsets))])
+        points = np.vstack([points + [x, y, 0.0] for x, y in offsets])
     tmp = path.with_name(path.name + ".part")
     meshio.write(tmp, meshio.Mesh(points, [("triangle", triangles)]), file_format="stl",
                  binary=False)

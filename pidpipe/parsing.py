@@ -19,7 +19,7 @@ rotational, potential and (where measured) elastic energy at the boundaries.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -105,12 +105,12 @@ def read_ave_time(path: str | Path, n_columns: int) -> np.ndarray:
 
 def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float,
                 expected_cycles: int, elastic_j: np.ndarray | None = None) -> CycleSeries:
-    """Per-cycle balance from the shake deck's two output files.
+    """Per-cycle balance of all spheres from the mesh ledger (the patch deck's two files).
 
     Parameters
     ----------
     power_path, energy_path : path
-        The ``fix ave/time`` outputs of the shake deck.
+        The ``fix ave/time`` outputs of the deck.
     period_s : float
         Period of the base motion, s.
     expected_cycles : int
@@ -121,28 +121,109 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
         (:func:`pidpipe.contact_energy.boundary_elastic_energy`). Without it the balance leaves
         out the elastic energy (NaN in ``elastic_j``).
     """
-    power = read_ave_time(power_path, 3)
-    energy = read_ave_time(energy_path, 6)
-    for name, path, table, rows in (("power", power_path, power, expected_cycles),
-                                    ("energy", energy_path, energy, expected_cycles + 1)):
+    power, energy = _read_cycle_tables(power_path, energy_path, expected_cycles, 1)
+    return _cycle_series(power[:, 1] * period_s, power[:, 2] * period_s, energy[:, 1:6], elastic_j)
+
+
+def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s: float,
+                      expected_cycles: int, n_cells: int,
+                      elastic_j: np.ndarray | None = None) -> tuple[list[CycleSeries], CycleSeries]:
+    """Per-cycle balance of each cell of a shake deck, and of all of them from the mesh's force.
+
+    Parameters
+    ----------
+    power_path : path
+        The power file: step, the mesh's power and |power| over all cells, and with several
+        cells each cell's power.
+    energy_path : path
+        Each cell's energies at the cycle boundaries (step, then 5 columns cell by cell).
+    period_s, expected_cycles
+        As :func:`read_cycles`.
+    n_cells : int
+    elastic_j : ndarray, shape (expected_cycles + 1, n_cells), optional
+        Elastic energy held in each cell's contacts at each cycle boundary, J.
+
+    Returns
+    -------
+    cells : list of CycleSeries
+        One per cell. With one cell, the mesh's; with several, each cell's gross work
+        exchanged is not measured (NaN).
+    mesh : CycleSeries
+        All cells together, the wall work and gross work from the mesh's force; with several
+        cells the sum of the cells' work must match its work.
+
+    Raises
+    ------
+    ParseError
+        Missing, truncated or inconsistent output.
+    """
+    cell_columns = n_cells if n_cells > 1 else 0
+    power, energy = _read_cycle_tables(power_path, energy_path, expected_cycles, n_cells,
+                                       3 + cell_columns)
+    if elastic_j is not None:
+        elastic_j = np.asarray(elastic_j, dtype=float).reshape(len(energy), n_cells)
+    mesh_work, mesh_gross = power[:, 1] * period_s, power[:, 2] * period_s
+    cells = []
+    for index in range(n_cells):
+        work, gross = ((mesh_work, mesh_gross) if n_cells == 1
+                       else (power[:, 3 + index] * period_s, np.full(len(power), np.nan)))
+        cells.append(_cycle_series(work, gross, energy[:, 1 + 5 * index:6 + 5 * index],
+                                   None if elastic_j is None else elastic_j[:, index]))
+    if n_cells == 1:
+        return cells, cells[0]
+    total = sum_cycle_series(cells)
+    mesh = replace(total, wall_work_j=mesh_work, gross_work_j=mesh_gross,
+                   dissipated_j=mesh_work - np.diff(total.energy_j))
+    return cells, mesh
+
+
+def _read_cycle_tables(power_path: str | Path, energy_path: str | Path, expected_cycles: int,
+                       n_cells: int, power_columns: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The power file (step, power, |power|, ...) and the energy file (step, 5 columns per
+    cell), checked for length and matching steps."""
+    power = read_ave_time(power_path, power_columns)
+    energy = read_ave_time(energy_path, 1 + 5 * n_cells)
+    for path, table, rows in ((power_path, power, expected_cycles),
+                              (energy_path, energy, expected_cycles + 1)):
         if len(table) != rows:
             raise ParseError(f"{path} has {len(table)} rows, expected {rows} for {expected_cycles} "
                              "cycles (truncated run?)")
     if energy[0, 0] != 0 or not np.array_equal(power[:, 0], energy[1:, 0]):
         raise ParseError(f"the cycle ends of {power_path} and {energy_path} differ")
-    work = power[:, 1] * period_s
-    gross = power[:, 2] * period_s
-    mechanical = energy[:, 1:4].sum(axis=1)
+    return power, energy
+
+
+def _cycle_series(work_j: np.ndarray, gross_j: np.ndarray, energy_columns: np.ndarray,
+                  elastic_j: np.ndarray | None) -> CycleSeries:
+    """The balance of one set of spheres from its work per cycle and its energy columns
+    (translational, rotational, potential, lowest, highest) at the cycle boundaries."""
+    mechanical = energy_columns[:, 0:3].sum(axis=1)
     total = mechanical
     if elastic_j is not None:
         elastic_j = np.asarray(elastic_j, dtype=float)
         if elastic_j.shape != mechanical.shape:
-            raise ParseError(f"{elastic_j.size} elastic energies for the {mechanical.size} cycle "
-                             f"boundaries of {energy_path}")
+            raise ParseError(f"{elastic_j.size} elastic energies for {mechanical.size} cycle boundaries")
         total = mechanical + elastic_j
-    return CycleSeries(wall_work_j=work, gross_work_j=gross, energy_j=total,
-                       dissipated_j=work - np.diff(total), lowest_z_m=energy[1:, 4],
-                       highest_z_m=energy[1:, 5], mechanical_j=mechanical, elastic_j=elastic_j)
+    return CycleSeries(wall_work_j=work_j, gross_work_j=gross_j, energy_j=total,
+                       dissipated_j=work_j - np.diff(total), lowest_z_m=energy_columns[1:, 3],
+                       highest_z_m=energy_columns[1:, 4], mechanical_j=mechanical,
+                       elastic_j=elastic_j)
+
+
+def sum_cycle_series(cells: list[CycleSeries]) -> CycleSeries:
+    """The series of several cells together: energies and works summed cycle by cycle, the
+    lowest and highest sphere over all cells (one cell: that cell's series itself)."""
+    if len(cells) == 1:
+        return cells[0]
+
+    def total(name):
+        return np.sum([getattr(series, name) for series in cells], axis=0)
+
+    return CycleSeries(wall_work_j=total("wall_work_j"), gross_work_j=total("gross_work_j"),
+                       energy_j=total("energy_j"), dissipated_j=total("dissipated_j"),
+                       lowest_z_m=np.min([s.lowest_z_m for s in cells], axis=0),
+                       highest_z_m=np.max([s.highest_z_m for s in cells], axis=0),
+                       mechanical_j=total("mechanical_j"), elastic_j=total("elastic_j"))
 
 
 CONTACT_COLUMNS = ("id_a", "id_b", "id_c", "shear_x", "shear_y", "shear_z", "overlap")

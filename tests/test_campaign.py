@@ -117,7 +117,7 @@ def test_replicates_are_averaged_into_one_row():
 
 def test_failed_case_is_a_failed_row_without_values_and_is_not_fitted(config):
     case = CaseSpec(1000.0, 10.0, 50.0)
-    failed = campaign.failed_record(config, case, n_spheres=11, seed=20261123,
+    failed = campaign.failed_record(config, case, n_spheres=11, seeds=[20261123],
                                     message="case f1000Hz_G10_r50pct_rep0 failed: boom")
     records = [record(1000.0, 10.0, 25.0), failed]
     table = campaign.records_to_table(records)
@@ -211,7 +211,7 @@ def test_engine_failure_writes_a_failed_record_naming_case_and_logs(config, tmp_
     packing_path = save_packing(_packing(config, 11), tmp_path / "r50pct_rep0.json")
     record_path = tmp_path / "cases" / "f500Hz_G5_r50pct_rep0.json"
     log = tmp_path / "case.log"
-    rec = campaign.simulate_case(case_config, "f500Hz_G5_r50pct_rep0", str(packing_path),
+    rec = campaign.simulate_case(case_config, "f500Hz_G5_r50pct_rep0", [str(packing_path)],
                                  str(record_path), str(tmp_path / "work"), str(log))
     written = json.loads(record_path.read_text())
     assert written["status"] == rec["status"] == "failed"
@@ -238,7 +238,7 @@ def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
     packing_path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
     log = tmp_path / "case.log"
     campaign.run_step(campaign.simulate_case, str(log), config=case_config,
-                      case_id="f1000Hz_G5_r25pct_rep0", packing_path=str(packing_path),
+                      case_id="f1000Hz_G5_r25pct_rep0", packing_paths=[str(packing_path)],
                       record_path=str(tmp_path / "rec.json"), workdir=str(tmp_path / "work"),
                       log_path=str(log))
     written = json.loads((tmp_path / "rec.json").read_text())
@@ -261,7 +261,7 @@ def test_packing_that_does_not_fit_fails_the_case(config, tmp_path, failing_ligg
     packing_path = save_packing(_packing(config, 11, pile_m=0.03), tmp_path / "r50pct_rep0.json")
     with pytest.raises(PackingError, match="do not fit"):
         campaign.simulate_case(campaign.stage_config(config, "case"), "f500Hz_G5_r50pct_rep0",
-                               str(packing_path), str(tmp_path / "rec.json"), str(tmp_path / "w"),
+                               [str(packing_path)], str(tmp_path / "rec.json"), str(tmp_path / "w"),
                                str(tmp_path / "log"))
     assert not (tmp_path / "rec.json").exists()
 

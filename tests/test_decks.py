@@ -37,6 +37,20 @@ def test_shake_deck_golden(tmp_path):
     _compare("shake.lmp", plan["deck"].read_text())
 
 
+def test_shake_deck_of_two_cells_golden(tmp_path):
+    """Two cells side by side in one mesh: a group and a ledger each, the second cell's spheres
+    moved to its place and numbered after the first's."""
+    second = Packing(positions_m=[[0.0001, -0.0002, -0.0112]], radius_m=1.25e-3, n_spheres=1,
+                     seed=2, pile_height_m=0.003, lid_height_m=0.0254, max_speed_m_s=0.0,
+                     settle_time_s=0.1, fill_pct=10.0)
+    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
+    text = plan["deck"].read_text()
+    assert "group           cell1 id 3:3" in text
+    assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power v_power_cell0 v_power_cell1 file" in text
+    assert text.count("mesh/surface/stress") == 1
+    _compare("shake_two_cells.lmp", text)
+
+
 def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
     cfg = load_config()
     cfg["fidelity"].update(rotation=False, friction=False, youngs_modulus_scale=0.1)

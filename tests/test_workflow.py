@@ -8,6 +8,7 @@ config and packings that do not fit.
 
 from __future__ import annotations
 
+import json
 import shutil
 import time
 from pathlib import Path
@@ -230,3 +231,25 @@ def test_external_table_is_optimised_without_any_dem_run(tmp_path):
     assert optimum["freq_hz"].iloc[0] == pytest.approx(900.0, rel=1e-6)
     assert optimum["accel_g"].iloc[0] == pytest.approx(6.0, rel=1e-6)
     assert (tmp_path / "results" / "figures" / "convergence.png").is_file()
+
+
+def test_several_cells_per_run_pour_their_own_packings_and_report_their_spread(tmp_path):
+    """fidelity.cells_per_run = 2 with 2 replicates: 4 packings per fill, none shared; each
+    record holds its 2 cells; the table averages the 2 runs and says how many cells each had."""
+    write_config(tmp_path, grid={"freq_hz": [1000], "accel_g": [10], "fill_pct": [25],
+                                 "replicates": 2},
+                 fidelity={"cells_per_run": 2, "transient_cycles": 10, "measured_cycles": 6})
+    run = snakemake(tmp_path, "table")
+    assert run.returncode == 0, run.stdout[-3000:]
+    checked = pd.read_csv(tmp_path / "results" / "packings" / "check.tsv", sep="\t")
+    assert sorted(checked["packing_id"]) == [f"r25pct_rep{k}" for k in range(4)]
+    seeds = []
+    for replicate in (0, 1):
+        record = json.loads((tmp_path / "results" / "cases" /
+                             f"f1000Hz_G10_r25pct_rep{replicate}.json").read_text())
+        assert len(record["cells"]) == 2 and record["fidelity"]["cells_per_run"] == 2
+        seeds += record["fidelity"]["seeds"]
+    assert len(set(seeds)) == 4
+    table = pd.read_csv(tmp_path / "results" / "ceq_table.csv")
+    assert len(table) == 1
+    assert table.loc[0, "cells_per_run"] == 2 and table.loc[0, "n_replicates"] == 2

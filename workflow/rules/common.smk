@@ -8,7 +8,7 @@ from pidpipe.errors import ConfigError
 
 
 CASES = campaign.campaign_cases(config)
-PACKING_IDS = sorted({case.packing_id for case in CASES})
+PACKING_IDS = campaign.campaign_packing_ids(config)
 
 # Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
 CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
@@ -35,6 +35,17 @@ def get_case_records():
 def get_packings():
     """The packing of every fill level and replicate."""
     return [f"results/packings/{packing_id}.json" for packing_id in PACKING_IDS]
+
+
+def get_case_packings(wildcards):
+    """The packings a simulate_case job shakes, one per cell of its run (fidelity.cells_per_run)."""
+    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
+    return [f"results/packings/{packing_id}.json"
+            for packing_id in campaign.case_packing_ids(config, case)]
+
+
+def get_cells_per_run():
+    return int(config["fidelity"]["cells_per_run"])
 
 
 def get_case_id(wildcards):

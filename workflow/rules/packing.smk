@@ -30,6 +30,7 @@ rule check_packings:
         ),
     params:
         case_ids=get_case_ids(),
+        cells_per_run=get_cells_per_run(),
     log:
         "logs/check_packings.log",
     script:

@@ -3,7 +3,7 @@
 
 rule simulate_case:
     input:
-        packing="results/packings/r{fill}pct_rep{replicate}.json",
+        packings=get_case_packings,
         checked=ancient("results/packings/check.tsv"),
     output:
         record="results/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.json",

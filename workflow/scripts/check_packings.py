@@ -8,4 +8,5 @@ run_step(
     packing_paths=list(snakemake.input.packings),
     case_ids=list(snakemake.params.case_ids),
     report_path=snakemake.output[0],
+    cells_per_run=snakemake.params.cells_per_run,
 )

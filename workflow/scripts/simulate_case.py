@@ -7,7 +7,7 @@ run_step(
     snakemake.log[0],
     config=snakemake.params.config,
     case_id=snakemake.params.case_id,
-    packing_path=snakemake.input.packing,
+    packing_paths=list(snakemake.input.packings),
     record_path=snakemake.output.record,
     workdir=snakemake.params.workdir,
     log_path=snakemake.log[0],

@@ -1,0 +1,145 @@
+"""Several independent cells, each with its own packing, shaken side by side in one LIGGGHTS run.
+
+The scene study (:mod:`pidpipe.scene_study`) measured that neighbouring cells do not interact
+(a cell of a patch reproduces the same packing shaken alone, bit for bit) and that packings
+differ by 5-7 % in C_eq beyond their cycle-to-cycle noise. A case can therefore estimate the
+mean cell of a coupon from k cells with k different packings, and that estimate's standard
+error includes the packing-to-packing scatter, which one cell's cycle noise does not.
+
+The k cells are laid out in a row along x, a gap of :data:`GAP_RADII` sphere radii apart, all
+in one wall mesh: LIGGGHTS' cost per step grows with the number of meshes (k meshes of one cell
+each cost as much as k runs: measured 14.2 CPU-s against 13.9 for 7 cells at 1000 Hz), while
+one mesh shares it. Each cell's wall work comes from the wall force on each of its spheres
+(``store_force``), times the wall velocity, summed per cell; its energies from a group per
+cell. The spheres of cell i are atoms ``first_atom_id .. last_atom_id`` (LIGGGHTS numbers
+atoms in creation order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pidpipe.damping import ceq_from_energy, summarise_cycles
+from pidpipe.geometry import HexCell, write_cell_stl
+
+GAP_RADII = 2.0
+"""Gap between neighbouring cells' walls, in sphere radii (any gap > 0 keeps them apart: a
+sphere cannot leave its own closed cell)."""
+
+MAX_CELLS = 24
+"""Most cells in one run: each needs a LIGGGHTS group, and LIGGGHTS allows 32 groups."""
+
+
+@dataclass(frozen=True)
+class CellLayout:
+    """Where the cells of one run are and which atoms are theirs.
+
+    Attributes
+    ----------
+    offsets_m : ndarray, shape (n_cells, 2)
+        x, y of each cell's centre, m.
+    first_atom_ids, last_atom_ids : tuple of int
+        The atom ids of each cell's spheres, inclusive (ids start at 1).
+    """
+
+    offsets_m: np.ndarray
+    first_atom_ids: tuple[int, ...]
+    last_atom_ids: tuple[int, ...]
+
+    @property
+    def n_cells(self) -> int:
+        return len(self.first_atom_ids)
+
+    def cell_of_atom(self) -> np.ndarray:
+        """The cell index of every atom, indexed by atom id - 1; shape (n_atoms,)."""
+        counts = np.asarray(self.last_atom_ids) - np.asarray(self.first_atom_ids) + 1
+        return np.repeat(np.arange(self.n_cells), counts)
+
+
+def side_by_side(cell: HexCell, spheres_per_cell: list[int], radius_m: float) -> CellLayout:
+    """A row of cells along x, :data:`GAP_RADII` radii apart; the first at the origin.
+
+    Parameters
+    ----------
+    cell : HexCell
+    spheres_per_cell : list of int
+        Spheres in each cell (at least one cell, at most :data:`MAX_CELLS`).
+    radius_m : float
+        Sphere radius, m.
+
+    Raises
+    ------
+    ValueError
+        No cell, too many cells, or a cell without spheres.
+    """
+    n_cells = len(spheres_per_cell)
+    if not 1 <= n_cells <= MAX_CELLS:
+        raise ValueError(f"{n_cells} cells in one run; 1 to {MAX_CELLS} are allowed")
+    if min(spheres_per_cell) < 1:
+        raise ValueError(f"every cell needs a sphere, got {spheres_per_cell}")
+    pitch = 2.0 * cell.circumradius_m + GAP_RADII * radius_m
+    offsets = np.column_stack([pitch * np.arange(n_cells), np.zeros(n_cells)])
+    last = np.cumsum(spheres_per_cell)
+    first = last - np.asarray(spheres_per_cell) + 1
+    return CellLayout(offsets_m=offsets, first_atom_ids=tuple(int(i) for i in first),
+                      last_atom_ids=tuple(int(i) for i in last))
+
+
+def place_packings(layout: CellLayout, centres_per_cell: list[np.ndarray]) -> np.ndarray:
+    """Every sphere centre of the run, cell by cell, moved to its cell; shape (n_atoms, 3), m."""
+    return np.vstack([np.asarray(centres, dtype=float) + [x, y, 0.0]
+                      for centres, (x, y) in zip(centres_per_cell, layout.offsets_m)])
+
+
+def write_cells_mesh(path: str | Path, cell: HexCell, layout: CellLayout) -> Path:
+    """Write the closed walls of every cell of the layout as one mesh (ASCII STL, m)."""
+    return write_cell_stl(path, cell, offsets_xy_m=layout.offsets_m)
+
+
+def summarise_cells(cells_dissipated_j: list[np.ndarray], freq_hz: float, accel_g: float,
+                    n_cells_coupon: int, block_cycles: int) -> dict:
+    """C_eq of the mean cell of a run of k cells, with a standard error that includes the
+    scatter between their packings.
+
+    Parameters
+    ----------
+    cells_dissipated_j : list of ndarray, each of shape (n_cycles,)
+        Each cell's dissipated energy per measured cycle, J.
+    freq_hz, accel_g, n_cells_coupon, block_cycles
+        As :func:`pidpipe.damping.summarise_cycles`.
+
+    Returns
+    -------
+    dict
+        :func:`pidpipe.damping.summarise_cycles` of the mean cell's series (the k cells' E_d
+        averaged cycle by cycle), whose standard errors become the larger of two estimates:
+        the mean series' cycle-to-cycle one (``ceq_cell_cycle_sem_ns_m``), and the spread of
+        the k cells' own C_eq, std / sqrt(k) (``ceq_cell_between_cells_sem_ns_m``, NaN for one
+        cell), which also holds the packing-to-packing scatter. As for replicates in separate
+        runs (:func:`pidpipe.campaign.combine_replicates`), the larger is kept because the
+        spread of a few cells is itself a poor estimate. With one cell this is
+        ``summarise_cycles`` of that cell, with ``cells`` empty. ``cells`` lists each cell's
+        own ``ceq_cell_ns_m`` and ``ceq_cell_sem_ns_m`` (N s/m) and ``ed_cycle_mean_j`` (J).
+    """
+    n_cells = len(cells_dissipated_j)
+    mean_cell = np.mean(cells_dissipated_j, axis=0) if n_cells > 1 else cells_dissipated_j[0]
+    summary = summarise_cycles(mean_cell, freq_hz, accel_g, n_cells_coupon, block_cycles)
+    cycle_sem = summary["ceq_cell_sem_ns_m"]
+    summary.update(ceq_cell_cycle_sem_ns_m=cycle_sem, ceq_cell_between_cells_sem_ns_m=float("nan"),
+                   cells=[])
+    if n_cells == 1:
+        return summary
+    own = [summarise_cycles(series, freq_hz, accel_g, n_cells_coupon, block_cycles)
+           for series in cells_dissipated_j]
+    values = np.array([cell["ceq_cell_ns_m"] for cell in own])
+    between = float(values.std(ddof=1) / np.sqrt(n_cells))
+    summary["ceq_cell_between_cells_sem_ns_m"] = between
+    summary["cells"] = [{key: cell[key] for key in ("ceq_cell_ns_m", "ceq_cell_sem_ns_m",
+                                                    "ed_cycle_mean_j")} for cell in own]
+    if between > cycle_sem or not np.isfinite(cycle_sem):
+        summary.update(ceq_cell_sem_ns_m=between, ceq_coupon_sem_ns_m=between * n_cells_coupon,
+                       ed_cycle_sem_j=between / ceq_from_energy(1.0, freq_hz, accel_g))
+    return summary
