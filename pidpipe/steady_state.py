@@ -19,7 +19,9 @@ Three tests on the series of one LIGGGHTS run (every cycle from the start of sha
 
 And the sign: ``negative_dissipation`` when the mean dissipation is below zero by more than
 three standard errors (the balance is inconsistent), ``not_resolved`` when it is within two
-standard errors of zero (no dissipation can be told from the balance's noise).
+standard errors of zero (no dissipation can be told from the balance's noise). The standard
+error is the one the record reports (:func:`pidpipe.damping.standard_error`, the larger of the
+block-means and the AR(1) estimates), so a flag and the error bar beside it agree.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from pidpipe.damping import block_means, mean_and_sem
+from pidpipe.damping import block_means, standard_error
 
 STEADY_DRIFT_LIMIT = 0.1
 """Largest share of the measured dissipation that may come from a net loss of stored energy
@@ -159,7 +161,7 @@ def assess_steady_state(dissipated_j: np.ndarray, energy_j: np.ndarray, configur
     p_value = halves_p_value(measured, block)
     if math.isfinite(p_value) and p_value < TREND_P_LIMIT:
         flags.append("not_stationary")
-    mean, sem = mean_and_sem(measured, block)
+    mean, sem = standard_error(measured, block)   # the SEM the record reports
     if not math.isfinite(sem) or mean + NEGATIVE_SEMS * sem < 0.0:
         flags.append("negative_dissipation" if math.isfinite(sem) else "not_resolved")
     elif mean <= NOT_RESOLVED_SEMS * sem:
