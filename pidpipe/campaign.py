@@ -291,7 +291,8 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
                      "n_spheres": packing.n_spheres, "seed": packing.seed,
                      "pile_height_mm": round(packing.pile_height_m * 1e3, 3),
                      "lid_height_mm": round(packing.lid_height_m * 1e3, 3),
-                     "max_speed_m_s": packing.max_speed_m_s, "verdict": verdict})
+                     "max_speed_m_s": packing.max_speed_m_s,
+                     "settle_time_s": packing.settle_time_s, "verdict": verdict})
         logger.info("%s: %d spheres, pile %.2f mm, lid %.2f mm: %s", packing_id, packing.n_spheres,
                     packing.pile_height_m * 1e3, packing.lid_height_m * 1e3, verdict)
     if problems:

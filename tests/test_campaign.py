@@ -289,6 +289,18 @@ def test_check_packings_writes_the_summary_when_all_fit(config, tmp_path):
     campaign.check_packings([str(path)], ["f500Hz_G5_r25pct_rep0"], str(report))
     summary = pd.read_csv(report, sep="\t")
     assert list(summary["verdict"]) == ["ok"] and list(summary["packing_id"]) == ["r25pct_rep0"]
+    assert summary.loc[0, "settle_time_s"] > 0
+
+
+def test_check_packings_names_the_cases_of_every_cell(config, tmp_path):
+    """With 2 cells per run, a misfit packing of replicate 3 belongs to the case of replicate 1."""
+    paths = [str(save_packing(_packing(config, 5, pile_m=0.038 if k == 3 else 0.01),
+                              tmp_path / f"r25pct_rep{k}.json")) for k in range(4)]
+    case_ids = [CaseSpec(500.0, 5.0, 25.0, q).case_id for q in (0, 1)]
+    with pytest.raises(PackingError) as info:
+        campaign.check_packings(paths, case_ids, str(tmp_path / "check.tsv"), cells_per_run=2)
+    assert "1 of 4 packing(s) refused" in str(info.value)
+    assert "f500Hz_G5_r25pct_rep1" in str(info.value) and "f500Hz_G5_r25pct_rep0" not in str(info.value)
 
 
 # --------------------------------------------------------------------------------------------
