@@ -104,4 +104,4 @@ def cycle_sem(record: dict) -> float:
     target extends a run by its cycle-to-cycle error only, and ``reached`` is judged on the
     reported one.
     """
-    return record.get("ceq_cell_cycle_sem_ns_m", record["ceq_cell_sem_ns_m"])
+    return record["ceq_cell_cycle_sem_ns_m"]

@@ -106,7 +106,7 @@ def campaign_cases(config: dict) -> list[CaseSpec]:
 
 def case_packing_ids(config: dict, case: CaseSpec) -> list[str]:
     """The packings a case shakes: one per cell of its run (``fidelity.cells_per_run``)."""
-    return case.packing_ids(int(config["fidelity"].get("cells_per_run", 1)))
+    return case.packing_ids(int(config["fidelity"]["cells_per_run"]))
 
 
 def campaign_packing_ids(config: dict) -> list[str]:

@@ -52,7 +52,7 @@ the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
 
 def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
                       workdir: Path) -> dict:
-    """Write the cells' meshes and the shake deck of a case; return the run's plan.
+    """Write the cells' wall mesh and the shake deck of a case; return the run's plan.
 
     Parameters
     ----------

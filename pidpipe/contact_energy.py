@@ -99,12 +99,6 @@ def contact_elastic_energies(contacts: np.ndarray, elasticity: ContactElasticity
     return normal + tangential
 
 
-def elastic_energy_j(contacts: np.ndarray, elasticity: ContactElasticity) -> float:
-    """Elastic energy held in a set of contacts of one kind, J (the sum of
-    :func:`contact_elastic_energies`)."""
-    return float(np.sum(contact_elastic_energies(contacts, elasticity)))
-
-
 #: Column of the atom id that places a contact in a cell: particle-particle contacts join two
 #: spheres of one cell (id_a), particle-wall contacts name the atom third (id_c).
 _ATOM_COLUMN = {"particle_particle": CONTACT_COLUMNS.index("id_a"),
@@ -112,9 +106,8 @@ _ATOM_COLUMN = {"particle_particle": CONTACT_COLUMNS.index("id_a"),
 
 
 def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config: dict,
-                            expected_steps: np.ndarray,
-                            cell_of_atom: np.ndarray | None = None) -> np.ndarray:
-    """Elastic energy in the contacts at each cycle boundary, from the two contact dumps.
+                            expected_steps: np.ndarray, cell_of_atom: np.ndarray) -> np.ndarray:
+    """Elastic energy in each cell's contacts at each cycle boundary, from the two contact dumps.
 
     Parameters
     ----------
@@ -124,15 +117,14 @@ def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config
         The validated config the deck was rendered from.
     expected_steps : ndarray of int, shape (n_boundaries,)
         The steps of the cycle boundaries, from step 0 (those of the energy file).
-    cell_of_atom : ndarray of int, shape (n_atoms,), optional
-        The cell of each atom, indexed by atom id - 1, for a run of several cells
-        (:meth:`pidpipe.replicate_cells.CellLayout.cell_of_atom`).
+    cell_of_atom : ndarray of int, shape (n_atoms,)
+        The cell of each atom, indexed by atom id - 1
+        (:meth:`pidpipe.replicate_cells.CellLayout.cell_of_atom`; zeros for one cell).
 
     Returns
     -------
-    ndarray, shape (n_boundaries,) or (n_boundaries, n_cells)
-        Elastic energy at each boundary, J: in all contacts, or (with ``cell_of_atom``) in
-        each cell's contacts.
+    ndarray, shape (n_boundaries, n_cells)
+        Elastic energy held in each cell's contacts at each boundary, J.
 
     Raises
     ------
@@ -141,8 +133,9 @@ def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config
         contact names an atom that is not in ``cell_of_atom``.
     """
     expected_steps = np.asarray(expected_steps, dtype=np.int64)
+    cell_of_atom = np.asarray(cell_of_atom, dtype=np.int64)
     elasticity = contact_elasticities(config)
-    n_cells = 1 if cell_of_atom is None else int(np.max(cell_of_atom)) + 1
+    n_cells = int(cell_of_atom.max()) + 1
     energy = np.zeros((expected_steps.size, n_cells))
     for path, kind in ((pair_path, "particle_particle"), (wall_path, "particle_wall")):
         steps, frames = read_local_frames(path, len(CONTACT_COLUMNS))
@@ -151,13 +144,10 @@ def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config
                              f"expected the {expected_steps.size} cycle boundaries "
                              f"({expected_steps[0]} .. {expected_steps[-1]}) (truncated run?)")
         for row, frame in enumerate(frames):
-            if cell_of_atom is None:
-                energy[row, 0] += elastic_energy_j(frame, elasticity[kind])
-                continue
             atom_ids = frame[:, _ATOM_COLUMN[kind]].astype(np.int64)
             if atom_ids.size and (atom_ids.min() < 1 or atom_ids.max() > len(cell_of_atom)):
                 raise ParseError(f"{path}: a contact at step {steps[row]} names atom "
                                  f"{atom_ids.max()}, but the run has {len(cell_of_atom)} atoms")
             energy[row] += np.bincount(cell_of_atom[atom_ids - 1], minlength=n_cells,
                                        weights=contact_elastic_energies(frame, elasticity[kind]))
-    return energy[:, 0] if cell_of_atom is None else energy
+    return energy

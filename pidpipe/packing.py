@@ -172,7 +172,7 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     values = common_values(config, start, plan.timestep_s, "pour_cell.stl", label, "pack",
                            simulation_box(cell, top_z, 2.0 * amplitude, radius),
                            thermo_every=max(1, steps // 10))
-    values.update(settle_steps=steps, output_file="settled.dump", tap_amplitude_m=amplitude,
+    values.update(settle_steps=steps, output_file="settled.dump", further_settling=[], tap_amplitude_m=amplitude,
                   tap_period_s=1.0 / TAP_FREQ_HZ, tap_steps=TAP_CYCLES * plan.steps_per_cycle)
     deck = workdir / "pour.lmp"
     deck.write_text(render("pack.lmp.j2", values), encoding="utf-8")

@@ -9,6 +9,10 @@ The shake deck writes two ``fix ave/time`` files, one row per cycle of the base 
   mass in the shake deck, from the floor in the patch deck), and the lowest and highest sphere
   centre.
 
+With several cells in one run (:mod:`pidpipe.replicate_cells`) the energy file has these five
+columns for each cell in turn, and the power file has each cell's mean power after the mesh's
+two columns (:func:`read_shake_cycles`).
+
 The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
 boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
 each, from which :mod:`pidpipe.contact_energy` computes the elastic energy held in the contacts.
@@ -212,10 +216,7 @@ def _cycle_series(work_j: np.ndarray, gross_j: np.ndarray, energy_columns: np.nd
 
 def sum_cycle_series(cells: list[CycleSeries]) -> CycleSeries:
     """The series of several cells together: energies and works summed cycle by cycle, the
-    lowest and highest sphere over all cells (one cell: that cell's series itself)."""
-    if len(cells) == 1:
-        return cells[0]
-
+    lowest and highest sphere over all cells."""
     def total(name):
         return np.sum([getattr(series, name) for series in cells], axis=0)
 

@@ -7,12 +7,13 @@ mean cell of a coupon from k cells with k different packings, and that estimate'
 error includes the packing-to-packing scatter, which one cell's cycle noise does not.
 
 The k cells are laid out in a row along x, a gap of :data:`GAP_RADII` sphere radii apart, all
-in one wall mesh: LIGGGHTS' cost per step grows with the number of meshes (k meshes of one cell
-each cost as much as k runs: measured 14.2 CPU-s against 13.9 for 7 cells at 1000 Hz), while
-one mesh shares it. Each cell's wall work comes from the wall force on each of its spheres
-(``store_force``), times the wall velocity, summed per cell; its energies from a group per
-cell. The spheres of cell i are atoms ``first_atom_id .. last_atom_id`` (LIGGGHTS numbers
-atoms in creation order).
+in one wall mesh: LIGGGHTS' cost per step grows with the number of meshes (a first layout with a
+mesh per cell cost as much as k separate runs, measured once during development), while one mesh
+shares it (``benchmarks/bench_cells.py``: 0.51-0.65 of k runs for k = 7). The walls' force on a
+cell's spheres is their group's total force plus their weight (contacts between a cell's own
+spheres cancel, and cells are apart), so each cell's wall power is that force times the wall
+velocity; its energies come from its group too (``templates/shake.lmp.j2``). The spheres of cell
+i are atoms ``first_atom_id .. last_atom_id`` (LIGGGHTS numbers atoms in creation order).
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ import pytest
 from scipy.integrate import quad
 
 from pidpipe.contact import hertz_normal_energy, hertz_normal_force, tangential_spring_energy
-from pidpipe.contact_energy import contact_elasticities, elastic_energy_j
+from pidpipe.contact_energy import contact_elastic_energies, contact_elasticities
 from pidpipe.dem.from_config import scene_from_config
 from pidpipe.parsing import CONTACT_COLUMNS
 
@@ -77,5 +77,5 @@ def test_a_frame_sums_normal_and_tangential_energy_of_every_contact(config):
     assert rows.shape[1] == len(CONTACT_COLUMNS)
     expected = (8 / 15 * e_star * r_star**0.5 * (4e-8**2.5 + 1e-8**2.5)
                 + 0.5 * 8 * g_star * (r_star * 4e-8) ** 0.5 * 1e-18)
-    assert elastic_energy_j(rows, elasticity) == pytest.approx(expected, rel=1e-12)
-    assert elastic_energy_j(np.empty((0, len(CONTACT_COLUMNS))), elasticity) == 0.0
+    assert np.sum(contact_elastic_energies(rows, elasticity)) == pytest.approx(expected, rel=1e-12)
+    assert np.sum(contact_elastic_energies(np.empty((0, len(CONTACT_COLUMNS))), elasticity)) == 0.0

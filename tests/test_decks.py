@@ -64,7 +64,8 @@ def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
 def _values(**overrides):
     values = common_values(load_config(), np.array(POSITIONS), 1e-6, "cell.stl", "test", "pack",
                            {"xlo": -1, "xhi": 1, "ylo": -1, "yhi": 1, "zlo": -1, "zhi": 1}, 100)
-    values.update(settle_steps=10, output_file="settled.dump", tap_amplitude_m=2.5e-4, tap_period_s=0.01, tap_steps=1000)
+    values.update(settle_steps=10, output_file="settled.dump", tap_amplitude_m=2.5e-4, tap_period_s=0.01, tap_steps=1000,
+                  further_settling=[])
     values.update(overrides)
     return values
 

@@ -40,9 +40,10 @@ def test_first_row_is_the_state_at_rest():
     assert energy[0, 0] == 0 and energy[0, 1] == 0 and energy[0, 2] == 0
 
 
-def _damaged(tmp_path, name, edit):
+def _damaged(tmp_path, name, edit, source=FIXTURE):
+    """A copy of a fixture folder with one file edited."""
     folder = tmp_path / "damaged"
-    shutil.copytree(FIXTURE, folder)
+    shutil.copytree(source, folder)
     path = folder / name
     path.write_text(edit(path.read_text()))
     return folder
@@ -81,6 +82,7 @@ def test_missing_file(tmp_path):
 # The contact dumps of a real run (tests/fixtures/README.md): 500 Hz, 5 g, 11 spheres, 6 cycles.
 CONTACTS = Path(__file__).parent / "fixtures" / "shake_500Hz_5g_contacts"
 CONTACT_CYCLES = 6
+CONTACT_SPHERES = 11
 STEPS_PER_CYCLE = 2223
 BOUNDARIES = STEPS_PER_CYCLE * np.arange(CONTACT_CYCLES + 1)
 
@@ -102,7 +104,7 @@ def test_real_contact_dumps():
 
 def _contact_balance(folder=CONTACTS):
     elastic = boundary_elastic_energy(folder / "pair_contacts.dump", folder / "wall_contacts.dump",
-                                      load_config(), BOUNDARIES)
+                                      load_config(), BOUNDARIES, np.zeros(CONTACT_SPHERES, dtype=int))[:, 0]
     return read_cycles(folder / "power.txt", folder / "energy.txt", 1.0 / 500.0, CONTACT_CYCLES,
                        elastic_j=elastic)
 
@@ -123,11 +125,7 @@ def test_balance_counts_the_elastic_energy_at_every_boundary():
 
 
 def _damaged_contacts(tmp_path, edit, name="wall_contacts.dump"):
-    folder = tmp_path / "damaged"
-    shutil.copytree(CONTACTS, folder)
-    path = folder / name
-    path.write_text(edit(path.read_text()))
-    return folder
+    return _damaged(tmp_path, name, edit, source=CONTACTS)
 
 
 def test_truncated_contact_dump(tmp_path):
