@@ -10,7 +10,7 @@
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in
 # workflow/rules/<stage>.smk, their scripts in workflow/scripts/ (each calls one function of
-# pidpipe.campaign), the grid and the get_* helpers in workflow/rules/common.smk.
+# pidpipe.steps), the grid and the get_* helpers in workflow/rules/common.smk.
 #
 # Failure policy
 # - A case whose LIGGGHTS run fails (EngineError/ParseError) is run once more (a rare MPI_ABORT
@@ -34,7 +34,7 @@
 
 import sys
 
-from pidpipe.campaign import workflow_config
+from pidpipe.steps.params import workflow_config
 from pidpipe.errors import ConfigError
 
 

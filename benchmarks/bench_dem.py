@@ -4,7 +4,7 @@ The case: 11 acrylic spheres (the settled packing of tests/dem/data), 500 Hz, 5 
 default fidelity (dt = 0.2 t_R, rotation and friction on). It times whole cycles after one
 warm-up cycle, for a batch of k = 1, 4 and 8 identical cells integrated together, and reports
 particle-steps per second (spheres x cells x steps / wall time). With ``--liggghts`` it also
-shakes the same packing in LIGGGHTS (pidpipe.case.run_case) and reports the ratio.
+shakes the same packing in LIGGGHTS (pidpipe.liggghts.shake.run_case) and reports the ratio.
 
 Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 2] [--liggghts]
 """
@@ -44,9 +44,9 @@ def time_numpy_dem(config: dict, positions: np.ndarray, batch: int, cycles: int)
 
 def time_liggghts(config: dict, positions: np.ndarray, workdir: Path) -> dict:
     """LIGGGHTS' loop time per particle-step on the same packing and case."""
-    from pidpipe.case import run_case
     from pidpipe.cases import CaseSpec
-    from pidpipe.packing import Packing
+    from pidpipe.cell.packing import Packing
+    from pidpipe.liggghts.shake import run_case
 
     cell_height = config["geometry"]["core_height_m"]
     radius = config["materials"][config["particle_material"]]["radius_m"]

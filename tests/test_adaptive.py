@@ -1,4 +1,4 @@
-"""Measuring to a target standard error (pidpipe.adaptive), with a stand-in for LIGGGHTS whose
+"""Measuring to a target standard error (pidpipe.measurement.adaptive), with a stand-in for LIGGGHTS whose
 standard error falls as 1/sqrt(n) exactly."""
 
 from __future__ import annotations
@@ -9,10 +9,15 @@ from pathlib import Path
 import pytest
 import yaml
 
-from pidpipe.adaptive import MAX_STAGES, SAFETY, cycles_for_target, run_to_target
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config, validate_config
 from pidpipe.errors import ConfigError
+from pidpipe.measurement.adaptive import (
+    MAX_STAGES,
+    SAFETY,
+    cycles_for_target,
+    run_to_target,
+)
 
 CASE = CaseSpec(500.0, 5.0, 50.0)
 

@@ -19,12 +19,25 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe import campaign
 from pidpipe.cases import CaseSpec
-from pidpipe.ceq_table import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, read_ceq_table, split_usable
+from pidpipe.cell.packing import Packing, cell_from_config, random_start, save_packing
 from pidpipe.config import load_config
+from pidpipe.config.stages import stage_config
+from pidpipe.design.ceq_table import (
+    OPTIONAL_COLUMNS,
+    REQUIRED_COLUMNS,
+    read_ceq_table,
+    split_usable,
+)
+from pidpipe.design.optimisation_files import read_results_json
+from pidpipe.design.records import TABLE_COLUMNS, combine_replicates, records_to_table
 from pidpipe.errors import ConfigError, PackingError, ParseError, TableError
-from pidpipe.packing import Packing, cell_from_config, random_start, save_packing
+from pidpipe.steps.cases import failed_record, simulate_case
+from pidpipe.steps.figures import plot_optimisation_convergence
+from pidpipe.steps.packings import check_packings
+from pidpipe.steps.params import WILDCARD_NUMBER, WILDCARD_REPLICATE, workflow_config
+from pidpipe.steps.run import run_step
+from pidpipe.steps.table import collect_table
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -36,7 +49,7 @@ def config() -> dict:
 
 def record(freq=500.0, accel=5.0, fill=50.0, replicate=0, status="ok", ceq=10.0, sem=1.0,
            flags=()) -> dict:
-    """A case record as pidpipe.case.run_case writes it (only the fields the table reads)."""
+    """A case record as pidpipe.liggghts.shake.run_case writes it (only the fields the table reads)."""
     case = CaseSpec(freq, accel, fill, replicate)
     return {
         "case_id": case.case_id, "freq_hz": freq, "accel_g": accel, "fill_pct": fill,
@@ -58,25 +71,25 @@ def record(freq=500.0, accel=5.0, fill=50.0, replicate=0, status="ok", ceq=10.0,
 
 
 def test_combine_replicates_single_replicate_keeps_its_value_and_error():
-    assert campaign.combine_replicates([3.0], [0.5]) == (3.0, 0.5)
+    assert combine_replicates([3.0], [0.5]) == (3.0, 0.5)
 
 
 def test_combine_replicates_propagates_run_errors_when_replicates_agree():
     # two equal values: no scatter between packings; error of the mean = sqrt(s1^2 + s2^2) / 2
-    mean, sem = campaign.combine_replicates([10.0, 10.0], [3.0, 4.0])
+    mean, sem = combine_replicates([10.0, 10.0], [3.0, 4.0])
     assert mean == 10.0
     assert sem == pytest.approx(5.0 / 2.0)
 
 
 def test_combine_replicates_uses_the_scatter_between_packings_when_it_is_larger():
     values = np.array([8.0, 10.0, 15.0])
-    mean, sem = campaign.combine_replicates(values, [0.1, 0.1, 0.1])
+    mean, sem = combine_replicates(values, [0.1, 0.1, 0.1])
     assert mean == pytest.approx(11.0)
     assert sem == pytest.approx(values.std(ddof=1) / math.sqrt(3))
 
 
 def test_combine_replicates_of_nothing_is_nan():
-    mean, sem = campaign.combine_replicates([], [])
+    mean, sem = combine_replicates([], [])
     assert math.isnan(mean) and math.isnan(sem)
 
 
@@ -86,9 +99,9 @@ def test_combine_replicates_of_nothing_is_nan():
 
 def test_table_has_one_row_per_case_with_the_contract_columns():
     records = [record(f, g, r) for f in (500.0, 1000.0) for g in (5.0, 10.0) for r in (25.0, 50.0)]
-    table = campaign.records_to_table(records)
+    table = records_to_table(records)
     assert len(table) == 8
-    assert list(table.columns) == list(campaign.TABLE_COLUMNS)
+    assert list(table.columns) == list(TABLE_COLUMNS)
     assert set(REQUIRED_COLUMNS) <= set(table.columns)
     assert set(OPTIONAL_COLUMNS) <= set(table.columns)
     assert (table["status"] == "ok").all()
@@ -103,7 +116,7 @@ def test_table_has_one_row_per_case_with_the_contract_columns():
 
 def test_replicates_are_averaged_into_one_row():
     records = [record(replicate=0, ceq=10.0, sem=3.0), record(replicate=1, ceq=10.0, sem=4.0)]
-    table = campaign.records_to_table(records)
+    table = records_to_table(records)
     assert len(table) == 1
     row = table.iloc[0]
     assert row["status"] == "ok" and row["n_replicates"] == 2
@@ -117,10 +130,10 @@ def test_replicates_are_averaged_into_one_row():
 
 def test_failed_case_is_a_failed_row_without_values_and_is_not_fitted(config):
     case = CaseSpec(1000.0, 10.0, 50.0)
-    failed = campaign.failed_record(config, case, n_spheres=11, seeds=[20261123],
+    failed = failed_record(config, case, n_spheres=11, seeds=[20261123],
                                     message="case f1000Hz_G10_r50pct_rep0 failed: boom")
     records = [record(1000.0, 10.0, 25.0), failed]
-    table = campaign.records_to_table(records)
+    table = records_to_table(records)
     row = table.set_index("case_id").loc["f1000Hz_G10_r50pct_rep0"]
     assert row["status"] == "failed"
     assert math.isnan(row["ceq_coupon_ns_m"]) and math.isnan(row["ceq_coupon_sem_ns_m"])
@@ -136,7 +149,7 @@ def test_failed_case_is_a_failed_row_without_values_and_is_not_fitted(config):
 
 def test_expected_case_without_record_is_missing():
     expected = [CaseSpec(500.0, 5.0, 25.0), CaseSpec(500.0, 5.0, 50.0)]
-    table = campaign.records_to_table([record(500.0, 5.0, 25.0)], expected)
+    table = records_to_table([record(500.0, 5.0, 25.0)], expected)
     assert list(table["status"]) == ["ok", "missing"]
     assert math.isnan(table["ceq_coupon_ns_m"].iloc[1])
 
@@ -145,7 +158,7 @@ def test_ok_replicates_are_used_and_the_others_named_in_flags():
     records = [record(replicate=0, ceq=12.0, sem=1.0),
                record(replicate=1, status="failed", ceq=float("nan"), sem=float("nan")),
                record(replicate=2, status="flagged", ceq=99.0, flags=["not_steady"])]
-    row = campaign.records_to_table(records).iloc[0]
+    row = records_to_table(records).iloc[0]
     assert row["status"] == "ok"
     assert row["n_replicates"] == 1
     assert row["ceq_coupon_ns_m"] == 12.0
@@ -153,7 +166,7 @@ def test_ok_replicates_are_used_and_the_others_named_in_flags():
 
 
 def test_flagged_without_ok_replicate_keeps_values_for_inspection():
-    row = campaign.records_to_table([record(status="flagged", ceq=7.0, flags=["not_steady"])]).iloc[0]
+    row = records_to_table([record(status="flagged", ceq=7.0, flags=["not_steady"])]).iloc[0]
     assert row["status"] == "flagged"
     assert row["flags"] == "not_steady"
     assert row["ceq_coupon_ns_m"] == 7.0
@@ -168,7 +181,7 @@ def test_collect_table_writes_a_valid_table_and_marks_missing_records(tmp_path):
         paths.append(str(path))
     paths.append(str(tmp_path / "cases" / "f1000Hz_G5_r25pct_rep0.json"))  # never written
     out = tmp_path / "ceq_table.csv"
-    campaign.collect_table(paths, str(out))
+    collect_table(paths, str(out))
     table = read_ceq_table(out)
     assert dict(zip(table["case_id"], table["status"])) == {
         "f500Hz_G5_r25pct_rep0": "ok", "f500Hz_G5_r50pct_rep0": "failed",
@@ -180,7 +193,7 @@ def test_collect_table_refuses_a_corrupt_record(tmp_path):
     bad = tmp_path / "f500Hz_G5_r25pct_rep0.json"
     bad.write_text("{not json")
     with pytest.raises(ParseError, match="cannot be read"):
-        campaign.collect_table([str(bad)], str(tmp_path / "t.csv"))
+        collect_table([str(bad)], str(tmp_path / "t.csv"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -207,11 +220,11 @@ def failing_liggghts(tmp_path, monkeypatch):
 
 
 def test_engine_failure_writes_a_failed_record_naming_case_and_logs(config, tmp_path, failing_liggghts):
-    case_config = campaign.stage_config(config, "case")
+    case_config = stage_config(config, "case")
     packing_path = save_packing(_packing(config, 11), tmp_path / "r50pct_rep0.json")
     record_path = tmp_path / "cases" / "f500Hz_G5_r50pct_rep0.json"
     log = tmp_path / "case.log"
-    rec = campaign.simulate_case(case_config, "f500Hz_G5_r50pct_rep0", [str(packing_path)],
+    rec = simulate_case(case_config, "f500Hz_G5_r50pct_rep0", [str(packing_path)],
                                  str(record_path), str(tmp_path / "work"), str(log))
     written = json.loads(record_path.read_text())
     assert written["status"] == rec["status"] == "failed"
@@ -233,11 +246,11 @@ def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
                       f'exec {liggghts} "$@"\n')
     script.chmod(0o755)
     monkeypatch.setenv("PIDPIPE_LIGGGHTS", str(script))
-    case_config = campaign.stage_config(config, "case")
+    case_config = stage_config(config, "case")
     case_config["fidelity"].update(transient_cycles=1, measured_cycles=2)
     packing_path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
     log = tmp_path / "case.log"
-    campaign.run_step(campaign.simulate_case, str(log), config=case_config,
+    run_step(simulate_case, str(log), config=case_config,
                       case_id="f1000Hz_G5_r25pct_rep0", packing_paths=[str(packing_path)],
                       record_path=str(tmp_path / "rec.json"), workdir=str(tmp_path / "work"),
                       log_path=str(log))
@@ -247,9 +260,9 @@ def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
 
 
 def test_case_ids_match_the_wildcard_constraints():
-    number = campaign.WILDCARD_NUMBER
+    number = WILDCARD_NUMBER
     pattern = re.compile(f"f(?P<freq>{number})Hz_G(?P<accel>{number})_r(?P<fill>{number})pct"
-                         f"_rep(?P<replicate>{campaign.WILDCARD_REPLICATE})")
+                         f"_rep(?P<replicate>{WILDCARD_REPLICATE})")
     for case in (CaseSpec(62.5, 0.5, 33.3, 2), CaseSpec(1000.0, 10.0, 100.0), CaseSpec(0.25, 1e-3, 5)):
         match = pattern.fullmatch(case.case_id)
         assert match is not None, case.case_id
@@ -260,7 +273,7 @@ def test_case_ids_match_the_wildcard_constraints():
 def test_packing_that_does_not_fit_fails_the_case(config, tmp_path, failing_liggghts):
     packing_path = save_packing(_packing(config, 11, pile_m=0.03), tmp_path / "r50pct_rep0.json")
     with pytest.raises(PackingError, match="do not fit"):
-        campaign.simulate_case(campaign.stage_config(config, "case"), "f500Hz_G5_r50pct_rep0",
+        simulate_case(stage_config(config, "case"), "f500Hz_G5_r50pct_rep0",
                                [str(packing_path)], str(tmp_path / "rec.json"), str(tmp_path / "w"),
                                str(tmp_path / "log"))
     assert not (tmp_path / "rec.json").exists()
@@ -273,7 +286,7 @@ def test_check_packings_lists_every_misfit_and_its_cases_in_one_message(config, 
     case_ids = [CaseSpec(f, 5.0, r).case_id for f in (500.0, 1000.0) for r in (25.0, 75.0, 90.0)]
     report = tmp_path / "check.tsv"
     with pytest.raises(PackingError) as info:
-        campaign.check_packings(paths, case_ids, str(report))
+        check_packings(paths, case_ids, str(report))
     message = str(info.value)
     assert message.startswith("2 of 3 packing(s) refused")
     for case_id in ("f500Hz_G5_r75pct_rep0", "f1000Hz_G5_r75pct_rep0", "f500Hz_G5_r90pct_rep0",
@@ -286,7 +299,7 @@ def test_check_packings_lists_every_misfit_and_its_cases_in_one_message(config, 
 def test_check_packings_writes_the_summary_when_all_fit(config, tmp_path):
     path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
     report = tmp_path / "check.tsv"
-    campaign.check_packings([str(path)], ["f500Hz_G5_r25pct_rep0"], str(report))
+    check_packings([str(path)], ["f500Hz_G5_r25pct_rep0"], str(report))
     summary = pd.read_csv(report, sep="\t")
     assert list(summary["verdict"]) == ["ok"] and list(summary["packing_id"]) == ["r25pct_rep0"]
     assert summary.loc[0, "settle_time_s"] > 0
@@ -298,7 +311,7 @@ def test_check_packings_names_the_cases_of_every_cell(config, tmp_path):
                               tmp_path / f"r25pct_rep{k}.json")) for k in range(4)]
     case_ids = [CaseSpec(500.0, 5.0, 25.0, q).case_id for q in (0, 1)]
     with pytest.raises(PackingError) as info:
-        campaign.check_packings(paths, case_ids, str(tmp_path / "check.tsv"), cells_per_run=2)
+        check_packings(paths, case_ids, str(tmp_path / "check.tsv"), cells_per_run=2)
     assert "1 of 4 packing(s) refused" in str(info.value)
     assert "f500Hz_G5_r25pct_rep1" in str(info.value) and "f500Hz_G5_r25pct_rep0" not in str(info.value)
 
@@ -315,7 +328,7 @@ def test_stage_config_ignores_what_the_stage_does_not_use(config):
     changed["geometry"]["coupon_width_m"] *= 2
     changed["materials"]["unused"] = {"density_kg_m3": 1.0, "youngs_modulus_pa": 1e7, "poisson_ratio": 0.3}
     for stage in ("packing", "case"):
-        assert repr(campaign.stage_config(changed, stage)) == repr(campaign.stage_config(config, stage))
+        assert repr(stage_config(changed, stage)) == repr(stage_config(config, stage))
 
 
 @pytest.mark.parametrize("stage, path, value", [
@@ -331,19 +344,19 @@ def test_stage_config_follows_what_the_stage_uses(config, stage, path, value):
     for key in path[:-1]:
         target = target[key]
     target[path[-1]] = value
-    assert campaign.stage_config(changed, stage) != campaign.stage_config(config, stage)
+    assert stage_config(changed, stage) != stage_config(config, stage)
 
 
 def test_stage_config_is_enough_to_render_a_case(config, tmp_path):
-    from pidpipe.case import render_shake_deck
+    from pidpipe.liggghts.shake import render_shake_deck
 
-    plan = render_shake_deck(campaign.stage_config(config, "case"), CaseSpec(500.0, 5.0, 50.0),
+    plan = render_shake_deck(stage_config(config, "case"), CaseSpec(500.0, 5.0, 50.0),
                              _packing(config, 11), tmp_path)
     assert plan["deck"].is_file()
 
 
 def test_stage_config_keys_are_sorted(config):
-    part = campaign.stage_config(config, "case")
+    part = stage_config(config, "case")
     assert list(part) == sorted(part)
     assert list(part["fidelity"]) == sorted(part["fidelity"])
 
@@ -353,12 +366,12 @@ def test_workflow_config_refuses_unknown_surrogate_method_and_missing_external_t
     raw = load_config(REPO / ".test" / "config.yaml")
     raw["surrogate"]["method"] = "kriging"
     with pytest.raises(ConfigError, match="surrogate.method = 'kriging'"):
-        campaign.workflow_config(raw)
+        workflow_config(raw)
     raw["surrogate"]["method"] = "rbf_thin_plate"
     raw["optimisation"]["external_ceq_table"] = "nowhere.csv"
     monkeypatch.chdir(tmp_path)
     with pytest.raises(ConfigError, match="external_ceq_table = 'nowhere.csv'"):
-        campaign.workflow_config(raw)
+        workflow_config(raw)
 
 
 def test_run_step_turns_a_pidpipe_error_into_exit_1_with_the_message(tmp_path, capsys):
@@ -367,7 +380,7 @@ def test_run_step_turns_a_pidpipe_error_into_exit_1_with_the_message(tmp_path, c
 
     log = tmp_path / "logs" / "step.log"
     with pytest.raises(SystemExit) as info:
-        campaign.run_step(step, str(log), value=3)
+        run_step(step, str(log), value=3)
     assert info.value.code == 1
     err = capsys.readouterr().err
     assert "C_eq table x: bad value 3" in err and "Traceback" not in err
@@ -379,7 +392,7 @@ def test_run_step_lets_bugs_keep_their_traceback(tmp_path):
         raise ZeroDivisionError("bug")
 
     with pytest.raises(ZeroDivisionError):
-        campaign.run_step(step, str(tmp_path / "step.log"))
+        run_step(step, str(tmp_path / "step.log"))
 
 
 # --------------------------------------------------------------------------------------------
@@ -396,24 +409,29 @@ class _Plane:
 
 
 def test_results_json_reads_back_and_plots(tmp_path):
-    from pidpipe.optimisation import Budget, Environment, optimise_environments, write_results_json
+    from pidpipe.design.optimisation import (
+        Budget,
+        Environment,
+        optimise_environments,
+        write_results_json,
+    )
 
     results = optimise_environments(_Plane(), [Environment("e", (200.0, 300.0), (2.0, 3.0))],
                                     Budget(n_spheres=1000, full_cell_spheres=21, n_cells_coupon=441),
                                     starts=3, seed=1)
     path = tmp_path / "optimum.json"
     write_results_json(results, path)
-    back = campaign.read_results_json(path)
+    back = read_results_json(path)
     assert back[0].design == results[0].design
     assert back[0].optimum == results[0].optimum
     assert [s.history_ns_m for s in back[0].starts] == [s.history_ns_m for s in results[0].starts]
-    campaign.plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
+    plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
     assert (tmp_path / "convergence.png").stat().st_size > 1000
     assert (tmp_path / "convergence.pdf").stat().st_size > 1000
 
 
 def test_table_names_the_regime_and_whether_the_signal_is_resolved():
-    rows = campaign.records_to_table([record(accel=1.0, ceq=2.0, sem=0.9),
+    rows = records_to_table([record(accel=1.0, ceq=2.0, sem=0.9),
                                       record(accel=5.0, ceq=10.0, sem=1.0),
                                       record(accel=10.0, status="failed", ceq=float("nan"), sem=float("nan"))])
     one_g, five_g, failed = (rows[rows.accel_g == g].iloc[0] for g in (1.0, 5.0, 10.0))

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe.ceq_table import (
+from pidpipe.design.ceq_table import (
     OPTIONAL_COLUMNS,
     REQUIRED_COLUMNS,
     read_ceq_table,

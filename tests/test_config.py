@@ -5,8 +5,13 @@ import copy
 import pytest
 import yaml
 
-from pidpipe.config import (DEFAULT_CONFIG_PATH, budget_spheres, load_config, spheres_for_fill,
-                            validate_config)
+from pidpipe.config import (
+    DEFAULT_CONFIG_PATH,
+    budget_spheres,
+    load_config,
+    spheres_for_fill,
+    validate_config,
+)
 from pidpipe.errors import ConfigError
 
 RAW = yaml.safe_load(DEFAULT_CONFIG_PATH.read_text())
@@ -79,7 +84,7 @@ def test_missing_file(tmp_path):
 
 def test_schema_lists_exactly_the_surrogate_methods():
     from pidpipe.config import load_schema
-    from pidpipe.surrogate import METHODS
+    from pidpipe.design.surrogate import METHODS
 
     allowed = load_schema()["properties"]["surrogate"]["properties"]["method"]["enum"]
     assert sorted(allowed) == sorted(METHODS)

@@ -10,10 +10,17 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pidpipe.contact import hertz_normal_energy, hertz_normal_force, tangential_spring_energy
-from pidpipe.contact_energy import contact_elastic_energies, contact_elasticities
 from pidpipe.dem.from_config import scene_from_config
-from pidpipe.parsing import CONTACT_COLUMNS
+from pidpipe.liggghts.contact_energy import (
+    contact_elastic_energies,
+    contact_elasticities,
+)
+from pidpipe.liggghts.parsing import CONTACT_COLUMNS
+from pidpipe.physics.contact import (
+    hertz_normal_energy,
+    hertz_normal_force,
+    tangential_spring_energy,
+)
 
 OVERLAPS_M = (1e-10, 3e-8, 1e-6)   # a resting sphere's floor contact to a hard impact
 

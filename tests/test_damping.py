@@ -3,7 +3,13 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.damping import block_means, ceq_from_energy, displacement_amplitude_m, lag1_autocorrelation, mean_and_sem, summarise_cycles
+from pidpipe.measurement.statistics import (
+    block_means,
+    lag1_autocorrelation,
+    mean_and_sem,
+    summarise_cycles,
+)
+from pidpipe.physics.equivalent_damping import ceq_from_energy, displacement_amplitude_m
 
 
 def test_ceq_of_a_viscous_damper():

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pidpipe.case import render_shake_deck
 from pidpipe.cases import CaseSpec
+from pidpipe.cell.packing import Packing
 from pidpipe.config import load_config
-from pidpipe.decks import common_values, render
 from pidpipe.errors import ConfigError
-from pidpipe.packing import Packing
+from pidpipe.liggghts.decks import common_values, render
+from pidpipe.liggghts.shake import render_shake_deck
 
 GOLDEN = Path(__file__).parent / "golden"
 POSITIONS = [[0.0004, 0.0003, -0.01125], [-0.0005, 0.0002, -0.0088]]

@@ -19,10 +19,19 @@ import yaml
 
 from pidpipe.config import DEFAULT_CONFIG_PATH, load_config, validate_config
 from pidpipe.errors import ConfigError
-from pidpipe.fidelity_study import (REFERENCE, SUMMARY_COLUMNS, TABLE_COLUMNS,
-                                    collect_fidelity_study, median_with_sem, plan_study,
-                                    planned_steps, relative_error, study_table,
-                                    summarise_variants, variant_params)
+from pidpipe.studies.fidelity import (
+    REFERENCE,
+    SUMMARY_COLUMNS,
+    TABLE_COLUMNS,
+    collect_fidelity_study,
+    median_with_sem,
+    plan_study,
+    planned_steps,
+    relative_error,
+    study_table,
+    summarise_variants,
+    variant_params,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 SNAKEMAKE = Path(sys.executable).with_name("snakemake")
@@ -210,8 +219,8 @@ def test_summary_leaves_flagged_cases_out_and_names_them():
 
 
 def test_collect_writes_table_summary_and_a_missing_row(tmp_path):
-    from pidpipe.case import write_record
-    from pidpipe.figures import plot_fidelity
+    from pidpipe.figures.fidelity import plot_fidelity
+    from pidpipe.liggghts.shake import write_record
 
     records = made_up_records()
     jobs, paths = [], []

@@ -8,9 +8,10 @@ import pytest
 from matplotlib.contour import QuadContourSet
 from matplotlib.image import imread
 
-from pidpipe.figures import plot_ceq_freq_accel, plot_ceq_freq_fill, plot_convergence
-from pidpipe.optimisation import Budget, Environment, optimise_environments
-from pidpipe.surrogate import fit_surrogate
+from pidpipe.design.optimisation import Budget, Environment, optimise_environments
+from pidpipe.design.surrogate import fit_surrogate
+from pidpipe.figures.convergence import plot_convergence
+from pidpipe.figures.maps import plot_ceq_freq_accel, plot_ceq_freq_fill
 
 
 def table(f=(50.0, 100.0, 500.0, 750.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 50.0, 75.0, 90.0)):

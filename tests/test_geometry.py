@@ -4,7 +4,13 @@ import meshio
 import numpy as np
 import pytest
 
-from pidpipe.geometry import HexCell, cell_wall_triangles, coupon_cell_count, triangle_normals, write_cell_stl
+from pidpipe.cell.geometry import (
+    HexCell,
+    cell_wall_triangles,
+    coupon_cell_count,
+    triangle_normals,
+    write_cell_stl,
+)
 
 CELL = HexCell(4.76e-3, 25.4e-3)
 

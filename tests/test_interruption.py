@@ -54,9 +54,14 @@ from pathlib import Path
 import psutil  # a dependency of snakemake
 import pytest
 
-from pidpipe.campaign import read_record
-from tests._snakemake import (WORKFLOW_MARKS, planned_jobs, snakemake, snakemake_command,
-                              write_config)
+from pidpipe.design.records import read_record
+from tests._snakemake import (
+    WORKFLOW_MARKS,
+    planned_jobs,
+    snakemake,
+    snakemake_command,
+    write_config,
+)
 
 pytestmark = WORKFLOW_MARKS
 

@@ -12,8 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe.errors import ConfigError, DomainError
-from pidpipe.optimisation import (
+from pidpipe.design.optimisation import (
     Budget,
     BudgetError,
     Environment,
@@ -25,7 +24,8 @@ from pidpipe.optimisation import (
     write_results_csv,
     write_results_json,
 )
-from pidpipe.surrogate import fit_surrogate
+from pidpipe.design.surrogate import fit_surrogate
+from pidpipe.errors import ConfigError, DomainError
 
 DOMAIN = {"freq_hz": (50.0, 1000.0), "accel_g": (1.0, 10.0), "fill_pct": (25.0, 90.0)}
 ENV = Environment("250-300 Hz, 5-6 g", (250.0, 300.0), (5.0, 6.0))

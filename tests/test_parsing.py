@@ -7,9 +7,14 @@ import numpy as np
 import pytest
 
 from pidpipe.config import load_config
-from pidpipe.contact_energy import boundary_elastic_energy
 from pidpipe.errors import ParseError
-from pidpipe.parsing import CONTACT_COLUMNS, read_ave_time, read_cycles, read_local_frames
+from pidpipe.liggghts.contact_energy import boundary_elastic_energy
+from pidpipe.liggghts.parsing import (
+    CONTACT_COLUMNS,
+    read_ave_time,
+    read_cycles,
+    read_local_frames,
+)
 
 FIXTURE = Path(__file__).parent / "fixtures" / "shake_1000Hz_10g"
 PERIOD = 1.0 / 1000.0

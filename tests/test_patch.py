@@ -6,9 +6,16 @@ import meshio
 import numpy as np
 import pytest
 
-from pidpipe.geometry import HexCell, cell_wall_triangles, triangle_normals
-from pidpipe.patch import (cell_boundary, coupon_centres, patch_wall_triangles, place_in_cells,
-                           ring_centres, spheres_in_own_cells, write_patch_stl)
+from pidpipe.cell.geometry import HexCell, cell_wall_triangles, triangle_normals
+from pidpipe.cell.patch import (
+    cell_boundary,
+    coupon_centres,
+    patch_wall_triangles,
+    place_in_cells,
+    ring_centres,
+    spheres_in_own_cells,
+    write_patch_stl,
+)
 
 CELL = HexCell(4.76e-3, 25.4e-3)
 D = CELL.inscribed_diameter_m

@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pidpipe.cell.packing import Packing, cell_from_config
+from pidpipe.cell.patch import ring_centres
 from pidpipe.config import load_config
 from pidpipe.errors import ConfigError
-from pidpipe.packing import Packing, cell_from_config
-from pidpipe.patch import ring_centres
-from pidpipe.scene import render_patch_deck
+from pidpipe.liggghts.patch_run import render_patch_deck
 
 GOLDEN = Path(__file__).parent / "golden" / "patch.lmp"
 

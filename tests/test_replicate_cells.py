@@ -5,14 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe import campaign
 from pidpipe.cases import CaseSpec
+from pidpipe.cell.geometry import HexCell
+from pidpipe.cell.layout import MAX_CELLS, side_by_side
 from pidpipe.config import load_config, validate_config
-from pidpipe.damping import summarise_cycles
 from pidpipe.errors import ConfigError
-from pidpipe.geometry import HexCell
-from pidpipe.parsing import read_shake_cycles
-from pidpipe.replicate_cells import MAX_CELLS, side_by_side, summarise_cells
+from pidpipe.liggghts.parsing import read_shake_cycles
+from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.statistics import summarise_cycles
+from pidpipe.steps.params import campaign_packing_ids
 
 CELL = HexCell(4.76e-3, 25.4e-3)
 
@@ -28,7 +29,7 @@ def test_campaign_pours_every_packing_its_cases_shake():
     config = load_config()
     config["fidelity"]["cells_per_run"] = 3
     config["grid"]["replicates"] = 2
-    ids = campaign.campaign_packing_ids(config)
+    ids = campaign_packing_ids(config)
     assert len(ids) == len(config["grid"]["fill_pct"]) * 6
     assert "r90pct_rep5" in ids and "r90pct_rep6" not in ids
 

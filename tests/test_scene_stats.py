@@ -5,10 +5,16 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.damping import ceq_from_energy, summarise_cycles
-from pidpipe.scene import (energy_drift, packing_scatter, per_cell_ceq, same_packing_z,
-                           separate_runs_scene)
-from pidpipe.parsing import CycleSeries
+from pidpipe.liggghts.parsing import CycleSeries
+from pidpipe.liggghts.patch_run import energy_drift
+from pidpipe.measurement.cells import per_cell_ceq
+from pidpipe.measurement.statistics import summarise_cycles
+from pidpipe.physics.equivalent_damping import ceq_from_energy
+from pidpipe.studies.scene_stats import (
+    packing_scatter,
+    same_packing_z,
+    separate_runs_scene,
+)
 
 
 def _cell(seed, ceq, sem):
@@ -65,7 +71,7 @@ def test_energy_drift_is_the_stored_share_of_the_dissipation():
 
 
 def test_cost_split_into_set_up_and_cycles():
-    from pidpipe.scene_study import split_cost
+    from pidpipe.studies.scene import split_cost
 
     record = {"engine": {"cpu_time_s": 10.0, "wall_time_s": 20.0, "loop_time_s": 15.0},
               "transient_cycles": 1, "measured_cycles": 2}
@@ -74,7 +80,7 @@ def test_cost_split_into_set_up_and_cycles():
 
 
 def test_run_to_run_noise_from_same_packing_pairs():
-    from pidpipe.scene import run_to_run_noise
+    from pidpipe.studies.scene_stats import run_to_run_noise
 
     a = [_cell(1, 0.10, 0.01), _cell(2, 0.12, 0.01), _cell(3, 0.20, 0.01)]
     b = [_cell(1, 0.10, 0.01), _cell(2, 0.14, 0.01), _cell(3, 0.18, 0.01)]   # cell 1 identical

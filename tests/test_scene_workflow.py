@@ -11,7 +11,7 @@ import pytest
 
 from pidpipe.config import load_config, validate_config
 from pidpipe.errors import ConfigError
-from pidpipe.scene_study import SCENE_LABELS, plot_table, read_scene_table
+from pidpipe.studies.scene import SCENE_LABELS, plot_table, read_scene_table
 
 ROOT = Path(__file__).resolve().parent.parent
 SNAKEMAKE = Path(sys.executable).with_name("snakemake")

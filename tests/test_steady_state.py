@@ -1,16 +1,20 @@
-"""Steady-state tests on per-cycle series (pidpipe.steady_state) and the standard error of a mean
-of autocorrelated cycles (pidpipe.damping.standard_error), on synthetic series whose answer is known."""
+"""Steady-state tests on per-cycle series (pidpipe.measurement.steady_state) and the standard error of a mean
+of autocorrelated cycles (pidpipe.measurement.statistics.standard_error), on synthetic series whose answer is known."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pidpipe.case import timestep_flags
 from pidpipe.cases import REGIME_IMPACTING, REGIME_NO_LIFT_OFF, regime
-from pidpipe.damping import mean_and_sem, standard_error
-from pidpipe.engine import timestep_warnings
-from pidpipe.steady_state import (assess_steady_state, halves_p_value, mser_truncation)
+from pidpipe.liggghts.process import timestep_warnings
+from pidpipe.liggghts.shake import timestep_flags
+from pidpipe.measurement.statistics import mean_and_sem, standard_error
+from pidpipe.measurement.steady_state import (
+    assess_steady_state,
+    halves_p_value,
+    mser_truncation,
+)
 
 RNG_SEED = 20261123
 

@@ -12,8 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe.errors import DomainError, TableError
-from pidpipe.surrogate import (
+from pidpipe.design.surrogate import (
     DEFAULT_METHOD,
     DEFAULT_TARGET,
     METHODS,
@@ -24,6 +23,7 @@ from pidpipe.surrogate import (
     save_surrogate,
     select_surrogate,
 )
+from pidpipe.errors import DomainError, TableError
 
 F_HZ = (50.0, 100.0, 500.0, 750.0, 1000.0)
 G_G = (1.0, 5.0, 10.0)

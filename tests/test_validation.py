@@ -6,7 +6,12 @@ import math
 
 import pytest
 
-from pidpipe.validation import TABLE_COLUMNS, compare_records, plot_comparison, write_table
+from pidpipe.studies.validation import (
+    TABLE_COLUMNS,
+    compare_records,
+    plot_comparison,
+    write_table,
+)
 
 
 def _record(ed, sem, **extra):

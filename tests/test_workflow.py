@@ -17,10 +17,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe.ceq_table import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, read_ceq_table
 from pidpipe.config import budget_spheres, full_cell_spheres, load_config
-from tests._snakemake import (LIGGGHTS, TEST_CONFIG, WORKFLOW_MARKS, planned_jobs, snakemake,
-                              write_config)
+from pidpipe.design.ceq_table import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, read_ceq_table
+from tests._snakemake import (
+    LIGGGHTS,
+    TEST_CONFIG,
+    WORKFLOW_MARKS,
+    planned_jobs,
+    snakemake,
+    write_config,
+)
 
 FIDELITY_COLUMNS = ("dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
                     "transient_cycles", "measured_cycles", "sem_block_cycles", "seed")
@@ -81,7 +87,7 @@ def test_every_case_has_a_record_a_log_and_a_benchmark(campaign_dir):
 
 
 def test_surrogate_and_its_cross_validation(campaign_dir):
-    from pidpipe.surrogate import load_surrogate
+    from pidpipe.design.surrogate import load_surrogate
 
     surrogate = load_surrogate(campaign_dir / "results" / "surrogate.json")
     assert surrogate.method == "rbf_thin_plate"
@@ -221,7 +227,7 @@ def test_external_table_is_optimised_without_any_dem_run(tmp_path):
     assert run.returncode == 0, run.stdout[-5000:]
     assert not (tmp_path / "results" / "cases").exists()
     assert not (tmp_path / "results" / "ceq_table.csv").exists()
-    from pidpipe.surrogate import load_surrogate
+    from pidpipe.design.surrogate import load_surrogate
 
     surrogate = load_surrogate(tmp_path / "results" / "surrogate.json")
     assert len(surrogate.training) == 8

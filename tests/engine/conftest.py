@@ -1,6 +1,6 @@
 import pytest
 
-from pidpipe.packing import pour
+from pidpipe.liggghts.pour import pour
 from tests.conftest import short_config
 
 

@@ -5,11 +5,12 @@ import math
 
 import pytest
 
-from pidpipe.case import run_case, write_record
 from pidpipe.cases import CaseSpec
-from pidpipe.engine import run_deck
+from pidpipe.cell.packing import check_packing
 from pidpipe.errors import EngineError, PackingError
-from pidpipe.packing import check_packing, pour
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.process import run_deck
+from pidpipe.liggghts.shake import run_case, write_record
 from tests.conftest import short_config
 
 
@@ -70,7 +71,7 @@ def test_missing_binary_says_how_to_install(monkeypatch, tmp_path):
 
 
 def test_a_longer_window_repeats_the_shorter_one_cycle_for_cycle(tmp_path, half_fill_packing):
-    # pidpipe.adaptive extends a case by running it again with more cycles: that only adds
+    # pidpipe.measurement.adaptive extends a case by running it again with more cycles: that only adds
     # cycles if the same seed and packing replay the same trajectory.
     case = CaseSpec(1000.0, 10.0, 50.0)
     short = run_case(short_config(transient=3, measured=4), case, half_fill_packing, tmp_path / "short")

@@ -3,7 +3,7 @@
 import pytest
 
 from pidpipe.config import load_config, pair_properties
-from pidpipe.impacts import pair_restitution, wall_restitution
+from pidpipe.liggghts.impacts import pair_restitution, wall_restitution
 
 
 @pytest.mark.parametrize("speed", [0.05, 0.5])

@@ -18,13 +18,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from pidpipe import campaign
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
-from pidpipe.ceq_table import split_usable
 from pidpipe.config import load_config
-from pidpipe.packing import pour
-from pidpipe.steady_state import NEGATIVE_SEMS
+from pidpipe.design.ceq_table import split_usable
+from pidpipe.design.records import records_to_table
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
+from pidpipe.measurement.steady_state import NEGATIVE_SEMS
 from tests.conftest import short_config
 
 CORNERS = list(itertools.product((50.0, 1000.0), (1.0, 10.0), (25.0, 90.0)))
@@ -110,7 +110,7 @@ def test_ceq_converges_when_the_timestep_is_halved_or_the_case_is_flagged(corner
         assert difference <= AGREEMENT_SEMS * combined
     else:
         for flagged in (r for r in (record, halved) if r["status"] != "ok"):
-            table = campaign.records_to_table([flagged])
+            table = records_to_table([flagged])
             fitted, left_out = split_usable(table)
             assert fitted.empty and len(left_out) == 1
             assert table["status"].iloc[0] == "flagged" and table["flags"].iloc[0]

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
+from pidpipe.liggghts.shake import run_case
 from tests.conftest import short_config
 
 

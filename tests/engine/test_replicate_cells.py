@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.case import LEDGER_TOLERANCE, run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
-from pidpipe.packing import pour
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import LEDGER_TOLERANCE, run_case
 from tests.conftest import short_config
 
 CASE = CaseSpec(1000, 10, 25)

@@ -14,9 +14,10 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.packing import cell_from_config, pour
-from pidpipe.patch import place_in_cells, ring_centres, spheres_in_own_cells
-from pidpipe.scene import CONTAINMENT_TOL_RADII, run_patch
+from pidpipe.cell.packing import cell_from_config
+from pidpipe.cell.patch import place_in_cells, ring_centres, spheres_in_own_cells
+from pidpipe.liggghts.patch_run import CONTAINMENT_TOL_RADII, run_patch
+from pidpipe.liggghts.pour import pour
 from tests.conftest import short_config
 
 FREQ_HZ, ACCEL_G = 1000.0, 10.0   # the liveliest bed of the grid: spheres hit the side walls

@@ -10,8 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from pidpipe.cell.packing import SETTLED_SPEED_M_S, check_packing
 from pidpipe.errors import PackingError
-from pidpipe.packing import MAX_FURTHER_SETTLING, SETTLED_SPEED_M_S, check_packing, pour
+from pidpipe.liggghts.pour import MAX_FURTHER_SETTLING, pour
 from tests.conftest import short_config
 
 GOLDEN = Path(__file__).parent.parent / "golden"
