@@ -30,7 +30,7 @@
 # interrupted run (Ctrl-C, kill) resumes where it stopped with a plain `snakemake --cores 2`:
 # profiles/default sets rerun-incomplete, so the jobs that were running are redone. After
 # kill -9 (or a power loss) run `snakemake --unlock` once first: Snakemake's lock is left behind
-# and cannot be told from a live run's (tests/test_interruption.py).
+# and cannot be told from a live run's (tests/workflow/test_interruption.py).
 
 import sys
 

@@ -7,6 +7,8 @@ from pidpipe.cases import CaseSpec
 from pidpipe.liggghts.shake import run_case
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 
 def test_no_dissipation_where_none_is_modelled(tmp_path, half_fill_packing):
     # With e = 1 and mu = 0 nothing dissipates, so every single cycle must close. The balance

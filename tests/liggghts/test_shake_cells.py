@@ -12,6 +12,8 @@ from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import LEDGER_TOLERANCE, run_case
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 CASE = CaseSpec(1000, 10, 25)
 
 

@@ -27,6 +27,8 @@ from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.steady_state import NEGATIVE_SEMS
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 CORNERS = list(itertools.product((50.0, 1000.0), (1.0, 10.0), (25.0, 90.0)))
 MEASURED_CYCLES = 12
 AGREEMENT_SEMS = 3.0

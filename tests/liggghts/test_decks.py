@@ -16,7 +16,7 @@ from pidpipe.errors import ConfigError
 from pidpipe.liggghts.decks import common_values, render
 from pidpipe.liggghts.shake import render_shake_deck
 
-GOLDEN = Path(__file__).parent / "golden"
+GOLDEN = Path(__file__).parents[1] / "golden"
 POSITIONS = [[0.0004, 0.0003, -0.01125], [-0.0005, 0.0002, -0.0088]]
 
 

@@ -15,6 +15,8 @@ from pidpipe.errors import PackingError
 from pidpipe.liggghts.pour import MAX_FURTHER_SETTLING, pour
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 GOLDEN = Path(__file__).parent.parent / "golden"
 UNSETTLED_REPLICATE = 97
 """Replicate whose 50 % pour had a sphere at 5.5 mm/s after the configured 0.15 s."""

@@ -20,6 +20,8 @@ from pidpipe.liggghts.patch_run import CONTAINMENT_TOL_RADII, run_patch
 from pidpipe.liggghts.pour import pour
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 FREQ_HZ, ACCEL_G = 1000.0, 10.0   # the liveliest bed of the grid: spheres hit the side walls
 AGREE_SEMS = 3.0
 LEDGER_TOL = 0.01                 # of the mean E_d (mean) and of the gross work (largest cycle)

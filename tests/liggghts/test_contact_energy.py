@@ -1,7 +1,7 @@
 """Elastic energy held in the contacts: the formulas against their force laws, and the constants.
 
 The force laws here are the NumPy DEM's (pidpipe.dem.scene, built independently from the
-config and checked against LIGGGHTS in tests/engine/test_contact_law.py): a_n delta^{3/2}
+config and checked against LIGGGHTS in tests/liggghts/test_contact_law.py): a_n delta^{3/2}
 normal, a_t sqrt(delta) |xi| tangential. The stored energy must be their work, integrated
 numerically.
 """

@@ -16,7 +16,7 @@ from pidpipe.liggghts.parsing import (
     read_local_frames,
 )
 
-FIXTURE = Path(__file__).parent / "fixtures" / "shake_1000Hz_10g"
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "shake_1000Hz_10g"
 PERIOD = 1.0 / 1000.0
 CYCLES = 45
 
@@ -85,7 +85,7 @@ def test_missing_file(tmp_path):
 
 
 # The contact dumps of a real run (tests/fixtures/README.md): 500 Hz, 5 g, 11 spheres, 6 cycles.
-CONTACTS = Path(__file__).parent / "fixtures" / "shake_500Hz_5g_contacts"
+CONTACTS = Path(__file__).parents[1] / "fixtures" / "shake_500Hz_5g_contacts"
 CONTACT_CYCLES = 6
 CONTACT_SPHERES = 11
 STEPS_PER_CYCLE = 2223

@@ -5,6 +5,8 @@ import pytest
 from pidpipe.config import load_config, pair_properties
 from pidpipe.liggghts.impacts import pair_restitution, wall_restitution
 
+pytestmark = pytest.mark.engine
+
 
 @pytest.mark.parametrize("speed", [0.05, 0.5])
 def test_sphere_wall_restitution(tmp_path, speed):

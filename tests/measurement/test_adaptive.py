@@ -87,7 +87,7 @@ def test_stages_are_bounded():
 
 
 def test_a_cap_below_the_pilot_is_a_config_error():
-    raw = yaml.safe_load((Path(__file__).resolve().parents[1] / "config.yaml").read_text())
+    raw = yaml.safe_load((Path(__file__).resolve().parents[2] / "config.yaml").read_text())
     raw["fidelity"]["max_measured_cycles"] = 10
     with pytest.raises(ConfigError, match="fidelity.max_measured_cycles = 10"):
         validate_config(raw)

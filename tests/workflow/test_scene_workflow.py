@@ -13,7 +13,7 @@ from pidpipe.config import load_config, validate_config
 from pidpipe.errors import ConfigError
 from pidpipe.studies.scene import SCENE_LABELS, plot_table, read_scene_table
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SNAKEMAKE = Path(sys.executable).with_name("snakemake")
 
 

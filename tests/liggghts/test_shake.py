@@ -13,6 +13,8 @@ from pidpipe.liggghts.process import run_deck
 from pidpipe.liggghts.shake import run_case, write_record
 from tests.conftest import short_config
 
+pytestmark = pytest.mark.engine
+
 
 def test_ceq_is_finite_positive_and_reproducible(tmp_path, half_fill_packing):
     cfg = short_config(transient=3, measured=12)

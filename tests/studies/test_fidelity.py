@@ -33,7 +33,7 @@ from pidpipe.studies.fidelity import (
     variant_params,
 )
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 SNAKEMAKE = Path(sys.executable).with_name("snakemake")
 RAW = yaml.safe_load(DEFAULT_CONFIG_PATH.read_text())
 

@@ -4,11 +4,6 @@ from pidpipe.liggghts.pour import pour
 from tests.conftest import short_config
 
 
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        item.add_marker(pytest.mark.engine)
-
-
 @pytest.fixture(scope="session")
 def half_fill_packing(tmp_path_factory):
     """The default config's 50 % packing (11 spheres), poured and tapped once per session."""

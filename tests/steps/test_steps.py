@@ -2,7 +2,7 @@
 policy of a case, the packing check, the per-stage config and the step runner.
 
 None of these runs LIGGGHTS (a failing stand-in binary is used where a run must fail);
-tests/test_workflow.py runs the whole campaign with the real engine.
+tests/workflow/test_workflow.py runs the whole campaign with the real engine.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from pidpipe.steps.params import WILDCARD_NUMBER, WILDCARD_REPLICATE, workflow_c
 from pidpipe.steps.run import run_step
 from pidpipe.steps.table import collect_table
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")

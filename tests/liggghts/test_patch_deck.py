@@ -15,7 +15,7 @@ from pidpipe.config import load_config
 from pidpipe.errors import ConfigError
 from pidpipe.liggghts.patch_run import render_patch_deck
 
-GOLDEN = Path(__file__).parent / "golden" / "patch.lmp"
+GOLDEN = Path(__file__).parents[1] / "golden" / "patch.lmp"
 
 
 def _packing(dx):
