@@ -20,9 +20,11 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem import run_cycles, start
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.dem.from_scene import dem_scene
 
 PACKING = Path(__file__).resolve().parent.parent / "tests" / "dem" / "data" / "settled_11.csv"
 FREQ_HZ, ACCEL_G = 500.0, 5.0
@@ -30,7 +32,7 @@ FREQ_HZ, ACCEL_G = 500.0, 5.0
 
 def time_numpy_dem(config: dict, positions: np.ndarray, batch: int, cycles: int) -> dict:
     """Wall time of ``cycles`` cycles of a batch of identical cells (after one warm-up cycle)."""
-    scene = scene_from_config(config, FREQ_HZ, [ACCEL_G] * batch)
+    scene = dem_scene(CellScene.from_config(config), FREQ_HZ, [ACCEL_G] * batch)
     scene, state, ws = start(scene, positions)
     run_cycles(scene, state, ws, 1)
     began = time.perf_counter()
@@ -55,7 +57,7 @@ def time_liggghts(config: dict, positions: np.ndarray, workdir: Path) -> dict:
                       pile_height_m=float(positions[:, 2].max() + radius + cell_height / 2),
                       lid_height_m=cell_height, max_speed_m_s=0.0, settle_time_s=0.0,
                       fill_pct=50.0)
-    record = run_case(config, CaseSpec(FREQ_HZ, ACCEL_G, 50.0), packing, workdir)
+    record = run_case(ShakeSettings.from_config(config), CaseSpec(FREQ_HZ, ACCEL_G, 50.0), packing, workdir)
     engine = record["engine"]
     return dict(steps=engine["steps"], seconds=engine["liggghts_loop_time_s"],
                 particle_steps_per_s=len(positions) * engine["steps"]

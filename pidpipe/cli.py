@@ -57,24 +57,25 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.cases import CaseSpec
     from pidpipe.cell.packing import check_packing
     from pidpipe.config import load_config
+    from pidpipe.config.settings import PourSettings, ShakeSettings
     from pidpipe.liggghts.pour import pour
     from pidpipe.liggghts.shake import run_case, write_record
-    from pidpipe.measurement.timestep import transient_cycles_for
 
     config = load_config(args.config)
     _check_case_arguments(args, config)
+    pouring, shaking = PourSettings.from_config(config), ShakeSettings.from_config(config)
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
-    cells = int(config["fidelity"]["cells_per_run"])
+    cells = shaking.sampling.cells_per_run
     replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
     print(f"pidpipe: {case.case_id}: pouring {cells} packing(s) ...", file=sys.stderr, flush=True)
-    packings = [pour(config, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
+    packings = [pour(pouring, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
                 for k in replicates]
     for packing in packings:
         check_packing(packing, case.case_id)
-    cycles = transient_cycles_for(config, case.freq_hz) + config["fidelity"]["measured_cycles"]
+    cycles = shaking.sampling.transient_cycles_at(case.freq_hz) + shaking.sampling.measured_cycles
     print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
           f"for {cycles} cycles ...", file=sys.stderr, flush=True)
-    record = run_case(config, case, packings, args.workdir / case.case_id)
+    record = run_case(shaking, case, packings, args.workdir / case.case_id)
     if args.record:
         write_record(record, args.record)
     print(format_result(record))

@@ -1,8 +1,10 @@
 """The config: ``config.yaml`` validated against its JSON schema, and what follows from it.
 
 :mod:`.schema` loads and validates (:func:`load_config`, :func:`validate_config`);
-:mod:`.derived` computes what follows from a validated config (material and pair properties,
-spheres per fill, the sphere budget).
+:mod:`.settings` parses a validated config (or a stage's part of it) once into the frozen,
+typed settings the stages take; :mod:`.stages` cuts out the part each rule depends on;
+:mod:`.derived` computes what follows from a validated config (pair properties, spheres per
+fill, the sphere budget).
 """
 
 from pidpipe.config.derived import (

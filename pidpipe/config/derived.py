@@ -43,9 +43,14 @@ def full_cell_spheres(config: dict) -> int:
     return int(fill["poured_capacity_spheres"])
 
 
-def spheres_for_fill(config: dict, fill_pct: float) -> int:
+def spheres_at_fill(full_cell_spheres: int, fill_pct: float) -> int:
     """Spheres per cell at fill r (percent): round half up of full_cell_spheres * r / 100."""
-    return int(math.floor(full_cell_spheres(config) * float(fill_pct) / 100.0 + 0.5))
+    return int(math.floor(full_cell_spheres * float(fill_pct) / 100.0 + 0.5))
+
+
+def spheres_for_fill(config: dict, fill_pct: float) -> int:
+    """Spheres per cell at fill r (percent) under the configured fill definition."""
+    return spheres_at_fill(full_cell_spheres(config), fill_pct)
 
 
 def coupon_mass_kg(config: dict) -> float:

@@ -9,7 +9,8 @@ dissipated energy: term by term at the contacts, and the energy balance.
 Modules: :mod:`.scene` (materials, contact laws, timestep), :mod:`.walls` (wall motion),
 :mod:`.state` (the state arrays), :mod:`.contacts` (the force kernel and energy terms),
 :mod:`.integrator` (velocity Verlet), :mod:`.energy` (energies and the balance),
-:mod:`.run` (cycles and the case record), :mod:`.from_config` (scene from the config).
+:mod:`.run` (cycles and the case record), :mod:`.from_scene` (its scene from the shared
+:class:`pidpipe.cell.scene.CellScene`).
 """
 
 from pidpipe.dem.contacts import DISSIPATION_TERMS, Workspace, compute_forces

@@ -19,14 +19,12 @@ from pidpipe.errors import ParseError
 #: Statuses a table row can have, from the most to the least usable.
 _STATUS_ORDER = ("ok", "flagged", "failed", "missing")
 
-
 #: (table column, where it is in a record): values averaged over replicates with their SEM.
 _MEAN_WITH_SEM = (
     ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m"),
     ("ceq_cell_ns_m", "ceq_cell_sem_ns_m"),
     ("ed_cycle_mean_j", "ed_cycle_sem_j"),
 )
-
 
 #: table column -> key path in a record, for settings that are the same for every replicate.
 _SETTING_COLUMNS = {
@@ -44,7 +42,6 @@ _SETTING_COLUMNS = {
     "cells_per_run": ("fidelity", "cells_per_run"),
     "liggghts_version": ("engine", "liggghts_version"),
 }
-
 
 #: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.design.ceq_table`).
 TABLE_COLUMNS: tuple[str, ...] = (

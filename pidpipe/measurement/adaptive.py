@@ -13,13 +13,14 @@ time is the sum over the stages.
 
 from __future__ import annotations
 
-import copy
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Sequence
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import Packing
+from pidpipe.config.settings import ShakeSettings
 
 SAFETY = 1.2
 """Margin on the cycles that the 1/sqrt(n) law says are needed."""
@@ -51,20 +52,21 @@ def cycles_for_target(measured_cycles: int, relative_sem: float, target: float, 
     return min(cap, max(wanted, measured_cycles + 1))
 
 
-def run_to_target(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
+def run_to_target(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
                   workdir: str | Path,
-                  run: Callable[[dict, CaseSpec, Packing | Sequence[Packing], Path], dict]) -> dict:
+                  run: Callable[[ShakeSettings, CaseSpec, Packing | Sequence[Packing], Path], dict]
+                  ) -> dict:
     """Run a case, extending its measured window until the target relative SEM (if any) is met.
 
     Parameters
     ----------
-    config : dict
-        Validated config; ``fidelity.target_relative_sem`` (None: one run, as configured) and
-        ``fidelity.max_measured_cycles``.
+    settings : ShakeSettings
+        The case's settings; ``sampling.target_relative_sem`` (None: one run, as configured)
+        and ``sampling.max_measured_cycles``.
     case, packings, workdir
         As for ``run``.
     run : callable
-        ``run(config, case, packings, workdir) -> record`` (:func:`pidpipe.liggghts.shake.run_case`).
+        ``run(settings, case, packings, workdir) -> record`` (:func:`pidpipe.liggghts.shake.run_case`).
 
     Returns
     -------
@@ -72,21 +74,20 @@ def run_to_target(config: dict, case: CaseSpec, packings: Packing | Sequence[Pac
         The last stage's record, with ``target`` = {relative_sem, reached, stages (measured
         cycles of each run), cpu_time_s (all stages)}.
     """
-    fidelity = config["fidelity"]
-    target = fidelity.get("target_relative_sem")
-    record = run(config, case, packings, Path(workdir))
+    sampling = settings.sampling
+    target = sampling.target_relative_sem
+    record = run(settings, case, packings, Path(workdir))
     if target is None:
         return record
-    cap = int(fidelity["max_measured_cycles"])
-    stages = [int(fidelity["measured_cycles"])]
+    cap = sampling.max_measured_cycles
+    stages = [sampling.measured_cycles]
     cpu = [record["engine"]["liggghts_cpu_time_s"]]
-    staged = copy.deepcopy(config)
     while len(stages) < MAX_STAGES:
         value, sem = record["ceq_cell_ns_m"], cycle_sem(record)
         if not (value > 0.0 and math.isfinite(sem)) or sem <= target * value or stages[-1] >= cap:
             break
-        staged["fidelity"]["measured_cycles"] = cycles_for_target(stages[-1], sem / value, target, cap)
-        stages.append(staged["fidelity"]["measured_cycles"])
+        stages.append(cycles_for_target(stages[-1], sem / value, target, cap))
+        staged = replace(settings, sampling=replace(sampling, measured_cycles=stages[-1]))
         record = run(staged, case, packings, Path(workdir))
         cpu.append(record["engine"]["liggghts_cpu_time_s"])
     value, sem = record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"]

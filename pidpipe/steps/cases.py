@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import EngineError, ParseError
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -33,7 +34,8 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     Parameters
     ----------
     config : dict
-        The case stage's config (:func:`stage_config`).
+        The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`),
+        parsed here into :class:`~pidpipe.config.settings.ShakeSettings`.
     case_id : str
     packing_paths : list of path
         The packings to shake (JSON), one per cell of the run (:func:`case_packing_ids`).
@@ -62,12 +64,13 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     from pidpipe.measurement.adaptive import run_to_target
 
     case = CaseSpec.from_id(case_id)
+    settings = ShakeSettings.from_config(config)
     find_liggghts()
     packings = [load_packing(path) for path in packing_paths]
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(config, case, packings, workdir, run=run_case)
+            record = run_to_target(settings, case, packings, workdir, run=run_case)
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
@@ -85,22 +88,22 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         logger.error("%s", message)
         logger.error("the record %s is written with status failed so that the other cases and "
                      "the C_eq table go on; delete it to run the case again", record_path)
-        record = failed_record(config, case, packings[0].n_spheres,
+        record = failed_record(settings, case, packings[0].n_spheres,
                                [packing.seed for packing in packings], message)
         record["engine_attempts"] = ENGINE_ATTEMPTS
     write_record(record, record_path)
     return record
 
 
-def failed_record(config: dict, case: CaseSpec, n_spheres: int, seeds: list[int],
+def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds: list[int],
                   message: str) -> dict:
     """The record of a case whose run failed: its coordinates, the settings it ran with, no values.
 
     ``seeds`` are those of its packings, one per cell of the run.
     """
-    from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
+    from pidpipe.cell.scene import CellScene
 
-    fidelity = config["fidelity"]
+    fidelity, sampling = settings.fidelity, settings.sampling
     seeds = [int(seed) for seed in seeds]
     nan = float("nan")
     return {
@@ -110,13 +113,13 @@ def failed_record(config: dict, case: CaseSpec, n_spheres: int, seeds: list[int]
         "ceq_coupon_ns_m": nan, "ceq_coupon_sem_ns_m": nan, "ceq_cell_ns_m": nan,
         "ceq_cell_sem_ns_m": nan, "ed_cycle_mean_j": nan, "ed_cycle_sem_j": nan, "n_cycles": 0,
         "fidelity": {
-            **plan_timestep(config, case.freq_hz).as_record(),
-            "timestep_rayleigh_fraction_config": fidelity["timestep_rayleigh_fraction"],
-            "youngs_modulus_scale": fidelity["youngs_modulus_scale"],
-            "transient_cycles": transient_cycles_for(config, case.freq_hz),
-            "measured_cycles": int(fidelity["measured_cycles"]),
-            "sem_block_cycles": int(fidelity["sem_block_cycles"]),
-            "rotation": bool(fidelity["rotation"]), "friction": bool(fidelity["friction"]),
+            **CellScene.of(settings).timestep(case.freq_hz).as_record(),
+            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
+            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
+            "transient_cycles": sampling.transient_cycles_at(case.freq_hz),
+            "measured_cycles": sampling.measured_cycles,
+            "sem_block_cycles": sampling.sem_block_cycles,
+            "rotation": fidelity.rotation, "friction": fidelity.friction,
             "cells_per_run": len(seeds),
             "seed": seeds[0],
             "seeds": seeds,

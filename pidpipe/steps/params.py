@@ -9,13 +9,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
-from pidpipe.config import budget_spheres, full_cell_spheres, validate_config
+from pidpipe.config import validate_config
+from pidpipe.config.settings import Budget
 from pidpipe.config.stages import sorted_keys
 from pidpipe.errors import ConfigError
 
 #: Snakemake wildcard constraint of a number in a case id (as written by ``format_number``).
 WILDCARD_NUMBER = NUMBER_PATTERN
-
 
 #: Snakemake wildcard constraint of a replicate index.
 WILDCARD_REPLICATE = r"[0-9]+"
@@ -58,8 +58,7 @@ def campaign_packing_ids(config: dict) -> list[str]:
 
 def budget_params(config: dict) -> dict:
     """What the optimiser's particle budget depends on: n_b, spheres per full cell, N."""
-    return {"n_spheres": budget_spheres(config), "full_cell_spheres": full_cell_spheres(config),
-            "n_cells_coupon": int(config["geometry"]["coupon_n_cells"])}
+    return Budget.from_config(config).as_params()
 
 
 def environment_params(config: dict) -> list[dict]:

@@ -7,6 +7,7 @@ import logging
 from pathlib import Path
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.files import write_atomic
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -19,7 +20,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
     Parameters
     ----------
     config : dict
-        The case stage's config (:func:`stage_config`).
+        The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`).
     cases : list of dict
         ``{"freq_hz", "accel_g", "fill_pct"}`` each (``validation.cases``).
     packing_paths : list of path
@@ -36,7 +37,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
 
     specs = [CaseSpec(float(c["freq_hz"]), float(c["accel_g"]), float(c["fill_pct"])) for c in cases]
     packings = {Path(path).stem: load_packing(path) for path in packing_paths}
-    table = run_validation(config, specs, packings, workdir)
+    table = run_validation(ShakeSettings.from_config(config), specs, packings, workdir)
     write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
     shutil.copyfile(Path(workdir) / "validation.png", plot_path)
     logger.info("validation: %d of %d cases agree within 2 combined standard errors",

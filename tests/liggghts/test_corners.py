@@ -20,6 +20,7 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.design.ceq_table import split_usable
 from pidpipe.design.records import records_to_table
 from pidpipe.liggghts.pour import pour
@@ -51,7 +52,7 @@ def corner_records(tmp_path_factory):
     base = corner_config(load_config()["fidelity"]["timestep_rayleigh_fraction"])
     halved = copy.deepcopy(base)
     halved["fidelity"]["timestep_rayleigh_fraction"] /= 2.0
-    packings = {fill: pour(base, fill, 0, tmp_path_factory.mktemp(f"pour{fill:g}"))
+    packings = {fill: pour(PourSettings.from_config(base), fill, 0, tmp_path_factory.mktemp(f"pour{fill:g}"))
                 for fill in (25.0, 90.0)}
     jobs = [(corner, config, label) for corner in CORNERS
             for config, label in ((base, "dt"), (halved, "half_dt"))]
@@ -60,7 +61,7 @@ def corner_records(tmp_path_factory):
         (freq, accel, fill), config, label = job
         case = CaseSpec(freq, accel, fill)
         workdir = tmp_path_factory.mktemp(f"{case.case_id}_{label}")
-        return run_case(config, case, packings[fill], workdir)
+        return run_case(ShakeSettings.from_config(config), case, packings[fill], workdir)
 
     with ThreadPoolExecutor(max_workers=2) as pool:  # LIGGGHTS runs in subprocesses
         records = list(pool.map(shake, jobs))

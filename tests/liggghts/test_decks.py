@@ -11,7 +11,9 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import Packing
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 from pidpipe.liggghts.decks import common_values, render
 from pidpipe.liggghts.shake import render_shake_deck
@@ -33,7 +35,7 @@ def _compare(name, text):
 
 
 def test_shake_deck_golden(tmp_path):
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), _packing(), tmp_path)
+    plan = render_shake_deck(ShakeSettings.from_config(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path)
     _compare("shake.lmp", plan["deck"].read_text())
 
 
@@ -43,7 +45,7 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
     second = Packing(positions_m=[[0.0001, -0.0002, -0.0112]], radius_m=1.25e-3, n_spheres=1,
                      seed=2, pile_height_m=0.003, lid_height_m=0.0254, max_speed_m_s=0.0,
                      settle_time_s=0.1, fill_pct=10.0)
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
+    plan = render_shake_deck(ShakeSettings.from_config(load_config()), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
     text = plan["deck"].read_text()
     assert "group           cell1 id 3:3" in text
     assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power v_power_cell0 v_power_cell1 file" in text
@@ -54,7 +56,7 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
 def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
     cfg = load_config()
     cfg["fidelity"].update(rotation=False, friction=False, youngs_modulus_scale=0.1)
-    plan = render_shake_deck(cfg, CaseSpec(50, 1, 10), _packing(), tmp_path)
+    plan = render_shake_deck(ShakeSettings.from_config(cfg), CaseSpec(50, 1, 10), _packing(), tmp_path)
     text = plan["deck"].read_text()
     assert "fix             integrate all nve\n" in text
     assert "coefficientFriction peratomtypepair 2 0.0 0.0 0.0 0.0" in text
@@ -62,7 +64,7 @@ def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
 
 
 def _values(**overrides):
-    values = common_values(load_config(), np.array(POSITIONS), 1e-6, "cell.stl", "test", "pack",
+    values = common_values(CellScene.from_config(load_config()), np.array(POSITIONS), 1e-6, "cell.stl", "test", "pack",
                            {"xlo": -1, "xhi": 1, "ylo": -1, "yhi": 1, "zlo": -1, "zhi": 1}, 100)
     values.update(settle_steps=10, output_file="settled.dump", tap_amplitude_m=2.5e-4, tap_period_s=0.01, tap_steps=1000,
                   further_settling=[])
@@ -106,7 +108,7 @@ def test_missing_value_is_an_error():
 
 
 def test_no_deck_holds_a_shell_include_or_string_variable(tmp_path):
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), _packing(), tmp_path)
+    plan = render_shake_deck(ShakeSettings.from_config(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path)
     for line in plan["deck"].read_text().splitlines():
         command = line.split("#")[0].split()
         if command:

@@ -11,6 +11,7 @@ import yaml
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config, validate_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 from pidpipe.measurement.adaptive import (
     MAX_STAGES,
@@ -27,8 +28,8 @@ def fake_run(ceq: float, scatter: float):
     the measured cycles of every call."""
     calls = []
 
-    def run(config, case, packing, workdir):
-        n = config["fidelity"]["measured_cycles"]
+    def run(settings, case, packing, workdir):
+        n = settings.sampling.measured_cycles
         calls.append(n)
         return {"ceq_cell_ns_m": ceq, "ceq_cell_sem_ns_m": scatter / math.sqrt(n),
                 "ceq_cell_cycle_sem_ns_m": scatter / math.sqrt(n),
@@ -41,7 +42,7 @@ def config_with(target, measured=40, cap=400):
     config = load_config()
     config["fidelity"].update(target_relative_sem=target, measured_cycles=measured,
                               max_measured_cycles=cap)
-    return config
+    return ShakeSettings.from_config(config)
 
 
 def test_without_a_target_the_case_runs_once_as_configured(tmp_path):

@@ -20,8 +20,10 @@ import pandas as pd
 import pytest
 
 from pidpipe.cases import CaseSpec
-from pidpipe.cell.packing import Packing, cell_from_config, random_start, save_packing
+from pidpipe.cell.packing import Packing, random_start, save_packing
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
 from pidpipe.design.ceq_table import (
     OPTIONAL_COLUMNS,
@@ -130,7 +132,7 @@ def test_replicates_are_averaged_into_one_row():
 
 def test_failed_case_is_a_failed_row_without_values_and_is_not_fitted(config):
     case = CaseSpec(1000.0, 10.0, 50.0)
-    failed = failed_record(config, case, n_spheres=11, seeds=[20261123],
+    failed = failed_record(ShakeSettings.from_config(config), case, n_spheres=11, seeds=[20261123],
                                     message="case f1000Hz_G10_r50pct_rep0 failed: boom")
     records = [record(1000.0, 10.0, 25.0), failed]
     table = records_to_table(records)
@@ -201,7 +203,7 @@ def test_collect_table_refuses_a_corrupt_record(tmp_path):
 
 
 def _packing(config: dict, n_spheres: int, pile_m: float | None = None) -> Packing:
-    cell = cell_from_config(config)
+    cell = CellScene.from_config(config).cell
     radius = config["materials"]["acrylic"]["radius_m"]
     centres = random_start(cell, n_spheres, radius, seed=1)
     pile = pile_m if pile_m is not None else float(centres[:, 2].max() + radius - cell.floor_z_m)
@@ -350,7 +352,7 @@ def test_stage_config_follows_what_the_stage_uses(config, stage, path, value):
 def test_stage_config_is_enough_to_render_a_case(config, tmp_path):
     from pidpipe.liggghts.shake import render_shake_deck
 
-    plan = render_shake_deck(stage_config(config, "case"), CaseSpec(500.0, 5.0, 50.0),
+    plan = render_shake_deck(ShakeSettings.from_config(stage_config(config, "case")), CaseSpec(500.0, 5.0, 50.0),
                              _packing(config, 11), tmp_path)
     assert plan["deck"].is_file()
 

@@ -6,6 +6,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
                                   environment_params)
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
@@ -148,7 +149,8 @@ def get_fidelity_case_config(wildcards):
 def get_fidelity_priority(wildcards):
     """Planned time steps of a run, in millions: the costliest runs start first."""
     case = CaseSpec.from_id(get_case_id(wildcards))
-    return fidelity_study.planned_steps(FIDELITY_STUDY.case_configs[wildcards.variant], case) / 1e6
+    settings = ShakeSettings.from_config(FIDELITY_STUDY.case_configs[wildcards.variant])
+    return fidelity_study.planned_steps(settings, case) / 1e6
 
 
 def get_fidelity_variants():
