@@ -27,8 +27,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 try:
     from numba import njit
 except ImportError as exc:  # pragma: no cover - exercised by hand, see compiled.py
@@ -48,14 +46,23 @@ N_ENERGY_ROWS = 6
 
 
 @njit(cache=True)
-def _contact(b, i, col, dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, law,
-             p, friction, rotation, update, shear, tenergy, slide, dprev, tprev, s2prev, out):
-    """One contact of sphere i with partner ``col``; writes force (0-2) and torque (3-5) on i
-    and the four raw energy terms (6-9) into ``out``, updates the contact's history.
+def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g_n, a_t, mu,
+             gt_over_gn, dt, radius, friction, rotation, update, sx, sy, sz, dprev, tpx, tpy,
+             tpz, s2prev):
+    """One contact, scalars in and out (so that it inlines into the loop without overhead).
 
-    ``dl`` is the overlap (>= 0), (ex, ey, ez) the unit normal towards i, vr the relative
-    velocity v_i - v_partner, w the sum of the angular velocities, nz the normal's z component
-    and lag = v_w - u_w (walls only).
+    Inputs: the overlap ``dl`` (>= 0), the unit normal (ex, ey, ez) towards sphere i, the
+    relative velocity vr = v_i - v_partner, the sum w of the angular velocities, whether the
+    partner is a wall (its normal's z component ``nz``, and lag = v_w - u_w), the law's
+    coefficients, and the contact's history: shear s, the last step's normal damping force,
+    -F_t (tp) and k_t |s|^2 (s2prev).
+
+    Returns
+    -------
+    tuple
+        Force on i (3, N), torque on i (3, N m), the raw energy terms e0..e3 (see
+        :func:`pidpipe.dem.contacts.reduce_terms`), then the new history: shear (3), damping
+        force, -F_t (3), k_t |s|^2, and whether the contact slid.
     """
     vn = vrx * ex + vry * ey + vrz * ez
     vtx, vty, vtz = vrx, vry, vrz
@@ -65,7 +72,7 @@ def _contact(b, i, col, dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, 
         vty = vry - ey * vn
         vtz = vrz - ez * vn
         if rotation:
-            cr = dl * -0.5 + p[RADIUS]
+            cr = dl * -0.5 + radius
             ax, ay, az = wx * cr, wy * cr, wz * cr
             vtx -= ay * ez - az * ey
             vty -= az * ex - ax * ez
@@ -73,31 +80,20 @@ def _contact(b, i, col, dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, 
     # normal force and normal damping
     sq = math.sqrt(dl)
     q = math.sqrt(sq)
-    gn = q * p[law + G_N]
+    gn = q * g_n
     damp = gn * vn
-    fn = sq * p[law + A_N] * dl - damp
-    e0 = dprev[b, i, col] + damp
+    fn = sq * a_n * dl - damp
+    e0 = dprev + damp
     if is_wall:
         e0 = e0 * vn + e0 * (lag * nz)
     else:
         e0 = e0 * vn
-    dprev[b, i, col] = damp
-    out[0] = ex * fn
-    out[1] = ey * fn
-    out[2] = ez * fn
-    out[3] = 0.0
-    out[4] = 0.0
-    out[5] = 0.0
-    out[6] = e0
-    out[7] = 0.0
-    out[8] = 0.0
-    out[9] = 0.0
+    fx, fy, fz = ex * fn, ey * fn, ez * fn
     if not friction:
-        return
+        return (fx, fy, fz, 0.0, 0.0, 0.0, e0, 0.0, 0.0, 0.0,
+                sx, sy, sz, damp, 0.0, 0.0, 0.0, 0.0, False)
     # tangential history, Coulomb cap, tangential damping
-    sx, sy, sz = shear[0, b, i, col], shear[1, b, i, col], shear[2, b, i, col]
     if update:
-        dt = p[DT]
         sx += vtx * dt
         sy += vty * dt
         sz += vtz * dt
@@ -107,10 +103,10 @@ def _contact(b, i, col, dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, 
         sz -= ez * s1
     if not dl > 0.0:                                  # an opened contact forgets its history
         sx, sy, sz = 0.0, 0.0, 0.0
-    kt = sq * p[law + A_T]
+    kt = sq * a_t
     s2 = sx * sx + sy * sy + sz * sz
     spring = math.sqrt(s2) * kt
-    cap = abs(fn) * p[law + MU]
+    cap = abs(fn) * mu
     sliding = spring > cap
     ratio = min(cap / (spring + 1e-300), 1.0)
     sx *= ratio
@@ -118,48 +114,51 @@ def _contact(b, i, col, dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, 
     sz *= ratio
     s2 = s2 * ratio * ratio
     stored2 = s2 * kt
-    gamma_t = 0.0 if sliding else gn * p[law + GT_OVER_GN]
+    gamma_t = 0.0 if sliding else gn * gt_over_gn
     t3x = sx * kt + vtx * gamma_t                     # -F_t
     t3y = sy * kt + vty * gamma_t
     t3z = sz * kt + vtz * gamma_t
-    bx = tprev[0, b, i, col] + t3x
-    by = tprev[1, b, i, col] + t3y
-    bz = tprev[2, b, i, col] + t3z
+    bx, by, bz = tpx + t3x, tpy + t3y, tpz + t3z
     e1 = bx * vtx + by * vty + bz * vtz
     e3 = (vtx * vtx + vty * vty + vtz * vtz) * gamma_t
     if is_wall:
         e1 += bz * lag
         e3 += (vtz * gamma_t) * lag
-    e1 = e1 * p[DT] - stored2 + s2prev[b, i, col]
-    out[7] = e1
-    out[8] = e1 if sliding else 0.0
-    out[9] = e3
-    shear[0, b, i, col] = sx
-    shear[1, b, i, col] = sy
-    shear[2, b, i, col] = sz
-    tprev[0, b, i, col] = t3x
-    tprev[1, b, i, col] = t3y
-    tprev[2, b, i, col] = t3z
-    s2prev[b, i, col] = stored2
-    tenergy[b, i, col] = stored2 * 0.5
-    slide[b, i, col] = sliding
-    out[0] -= t3x
-    out[1] -= t3y
-    out[2] -= t3z
+    e1 = e1 * dt - stored2 + s2prev
+    e2 = e1 if sliding else 0.0
+    tqx = tqy = tqz = 0.0
     if rotation:
-        out[3] = (ey * t3z - ez * t3y) * cr
-        out[4] = (ez * t3x - ex * t3z) * cr
-        out[5] = (ex * t3y - ey * t3x) * cr
+        tqx = (ey * t3z - ez * t3y) * cr
+        tqy = (ez * t3x - ex * t3z) * cr
+        tqz = (ex * t3y - ey * t3x) * cr
+    return (fx - t3x, fy - t3y, fz - t3z, tqx, tqy, tqz, e0, e1, e2, e3,
+            sx, sy, sz, damp, t3x, t3y, t3z, stored2, sliding)
+
+
+@njit(cache=True)
+def _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev):
+    """Write a contact's new history (the tail of :func:`_contact`'s tuple, ``h``)."""
+    shear[0, b, i, col] = h[10]
+    shear[1, b, i, col] = h[11]
+    shear[2, b, i, col] = h[12]
+    dprev[b, i, col] = h[13]
+    tprev[0, b, i, col] = h[14]
+    tprev[1, b, i, col] = h[15]
+    tprev[2, b, i, col] = h[16]
+    s2prev[b, i, col] = h[17]
+    tenergy[b, i, col] = h[17] * 0.5
+    slide[b, i, col] = h[18]
 
 
 @njit(cache=True)
 def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, p, flags,
-            normals, offsets, zw, vw, lag, update, acc, out):
+            normals, offsets, zw, vw, lag, update, acc):
     """All forces and torques of cell b (gravity included); adds the step's raw energy terms
     to ``acc[:, :, b]`` and returns the total z force of the walls on the spheres, N."""
     n = x.shape[2]
     friction, rotation = flags[0] != 0, flags[1] != 0
     radius = p[RADIUS]
+    dt = p[DT]
     reach2 = 4.0 * radius * radius * (1.0 + 1e-9)
     for i in range(n):
         f[0, b, i] = 0.0
@@ -180,20 +179,33 @@ def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev
             r = math.sqrt(r2)
             dl = max(2.0 * radius - r, 0.0)
             delta[b, i, j] = dl
-            _contact(b, i, j, dl, dx / r, dy / r, dz / r,
-                     v[0, b, i] - v[0, b, j], v[1, b, i] - v[1, b, j], v[2, b, i] - v[2, b, j],
-                     w[0, b, i] + w[0, b, j], w[1, b, i] + w[1, b, j], w[2, b, i] + w[2, b, j],
-                     False, 0.0, 0.0, PP, p, friction, rotation, update,
-                     shear, tenergy, slide, dprev, tprev, s2prev, out)
-            for c in range(3):
-                f[c, b, i] += out[c]
-                f[c, b, j] -= out[c]
+            h = _contact(dl, dx / r, dy / r, dz / r,
+                         v[0, b, i] - v[0, b, j], v[1, b, i] - v[1, b, j],
+                         v[2, b, i] - v[2, b, j], w[0, b, i] + w[0, b, j],
+                         w[1, b, i] + w[1, b, j], w[2, b, i] + w[2, b, j], False, 0.0, 0.0,
+                         p[PP + A_N], p[PP + G_N], p[PP + A_T], p[PP + MU],
+                         p[PP + GT_OVER_GN], dt, radius, friction, rotation, update,
+                         shear[0, b, i, j], shear[1, b, i, j], shear[2, b, i, j],
+                         dprev[b, i, j], tprev[0, b, i, j], tprev[1, b, i, j],
+                         tprev[2, b, i, j], s2prev[b, i, j])
+            _store(b, i, j, h, shear, tenergy, slide, dprev, tprev, s2prev)
+            f[0, b, i] += h[0]
+            f[1, b, i] += h[1]
+            f[2, b, i] += h[2]
+            f[0, b, j] -= h[0]
+            f[1, b, j] -= h[1]
+            f[2, b, j] -= h[2]
             if friction and rotation:
-                for c in range(3):
-                    t[c, b, i] += out[3 + c]
-                    t[c, b, j] += out[3 + c]
-            for k in range(4):
-                acc[k, 0, b] += out[6 + k]
+                t[0, b, i] += h[3]
+                t[1, b, i] += h[4]
+                t[2, b, i] += h[5]
+                t[0, b, j] += h[3]
+                t[1, b, j] += h[4]
+                t[2, b, j] += h[5]
+            acc[0, 0, b] += h[6]
+            acc[1, 0, b] += h[7]
+            acc[2, 0, b] += h[8]
+            acc[3, 0, b] += h[9]
     wall_fz = 0.0
     for i in range(n):
         for k in range(N_WALLS):
@@ -205,17 +217,26 @@ def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev
                 continue
             dl = max(dl, 0.0)
             delta[b, i, col] = dl
-            _contact(b, i, col, dl, nx, ny, nz, v[0, b, i], v[1, b, i], v[2, b, i] - vw,
-                     w[0, b, i], w[1, b, i], w[2, b, i], True, nz, lag, PW, p, friction,
-                     rotation, update, shear, tenergy, slide, dprev, tprev, s2prev, out)
-            for c in range(3):
-                f[c, b, i] += out[c]
+            h = _contact(dl, nx, ny, nz, v[0, b, i], v[1, b, i], v[2, b, i] - vw,
+                         w[0, b, i], w[1, b, i], w[2, b, i], True, nz, lag,
+                         p[PW + A_N], p[PW + G_N], p[PW + A_T], p[PW + MU],
+                         p[PW + GT_OVER_GN], dt, radius, friction, rotation, update,
+                         shear[0, b, i, col], shear[1, b, i, col], shear[2, b, i, col],
+                         dprev[b, i, col], tprev[0, b, i, col], tprev[1, b, i, col],
+                         tprev[2, b, i, col], s2prev[b, i, col])
+            _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev)
+            f[0, b, i] += h[0]
+            f[1, b, i] += h[1]
+            f[2, b, i] += h[2]
             if friction and rotation:
-                for c in range(3):
-                    t[c, b, i] += out[3 + c]
-            wall_fz += out[2]
-            for kk in range(4):
-                acc[kk, 1, b] += out[6 + kk]
+                t[0, b, i] += h[3]
+                t[1, b, i] += h[4]
+                t[2, b, i] += h[5]
+            wall_fz += h[2]
+            acc[0, 1, b] += h[6]
+            acc[1, 1, b] += h[7]
+            acc[2, 1, b] += h[8]
+            acc[3, 1, b] += h[9]
     for i in range(n):
         f[2, b, i] -= p[WEIGHT]
     return wall_fz
@@ -229,14 +250,13 @@ def set_up(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wa
     ``wall_fz`` (n_batch,) receives the walls' z force; the energy terms of this evaluation
     are not counted (``acc`` is zeroed).
     """
-    buf = np.zeros(10)
     omega = p[OMEGA]
     phase = omega * (step0 * p[DT])
     for b in range(x.shape[1]):
         zw = amplitude[b] * (math.cos(phase) - 1.0)
         vw = amplitude[b] * (-omega * math.sin(phase))
         wall_fz[b] = _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev,
-                             s2prev, p, flags, normals, offsets, zw, vw, 0.0, False, acc, buf)
+                             s2prev, p, flags, normals, offsets, zw, vw, 0.0, False, acc)
     acc[:] = 0.0
     _mirror(shear, tenergy, delta, slide)
 
@@ -273,7 +293,6 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
     half_over_i = 0.5 * dt / p[INERTIA]
     rotation = flags[1] != 0
     half_phase = 0.5 * omega * dt
-    buf = np.zeros(10)
     for b in range(x.shape[1]):
         amp = amplitude[b]
         step = step0
@@ -301,8 +320,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
                 uw = amp * (-2.0 * math.sin(omega * (step - 0.5) * dt) * math.sin(half_phase)
                             / dt)
                 fz = _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev,
-                             s2prev, p, flags, normals, offsets, zw, vw, vw - uw, True, acc,
-                             buf)
+                             s2prev, p, flags, normals, offsets, zw, vw, vw - uw, True, acc)
                 work = (wall_fz[b] + fz) * (uw * (0.5 * dt))
                 wall_fz[b] = fz
                 acc_work[b] += work
