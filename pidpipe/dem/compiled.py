@@ -148,7 +148,8 @@ def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
         ``wall_work_j``, ``gross_work_j`` (n_batch, n_cycles); ``terms_j`` (4, 2, n_batch,
         n_cycles) by term and contact type; and at the n_cycles + 1 boundaries
         ``kinetic_translational``, ``kinetic_rotational``, ``potential``, ``elastic``,
-        ``ledger`` (J) and ``centre_of_mass_z_m`` (m), each (n_batch, n_cycles + 1).
+        ``ledger`` (J), ``centre_of_mass_z_m``, ``lowest_z_m`` and ``highest_z_m`` (the
+        lowest and highest sphere centre, lab frame, m), each (n_batch, n_cycles + 1).
     """
     work, gross, terms, energy = _run(state, ws, int(n_cycles), scene.steps_per_cycle, True,
                                       reference_height_m)
@@ -156,7 +157,8 @@ def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
                 kinetic_translational=energy[kernel.E_TRANS],
                 kinetic_rotational=energy[kernel.E_ROT], potential=energy[kernel.E_POT],
                 elastic=energy[kernel.E_ELASTIC], ledger=energy[kernel.E_LEDGER],
-                centre_of_mass_z_m=energy[kernel.E_COM])
+                centre_of_mass_z_m=energy[kernel.E_COM], lowest_z_m=energy[kernel.E_LOWEST],
+                highest_z_m=energy[kernel.E_HIGHEST])
 
 
 def accumulated_dissipation(ws: KernelWorkspace, dt: float) -> np.ndarray:

@@ -41,8 +41,8 @@ A_N, G_N, A_T, MU, GT_OVER_GN, ENERGY_N = 0, 1, 2, 3, 4, 5   # offsets within a 
 N_PARAMS = 18
 N_WALLS = 8
 # rows of the boundary-energy output
-E_TRANS, E_ROT, E_POT, E_ELASTIC, E_LEDGER, E_COM = 0, 1, 2, 3, 4, 5
-N_ENERGY_ROWS = 6
+E_TRANS, E_ROT, E_POT, E_ELASTIC, E_LEDGER, E_COM, E_LOWEST, E_HIGHEST = 0, 1, 2, 3, 4, 5, 6, 7
+N_ENERGY_ROWS = 8
 
 
 @njit(cache=True)
@@ -284,7 +284,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
         and its absolute sum, J (accumulated)
     reference : (nb,) zero of the potential energy (a height, m)
     out_work, out_gross : (nb, n_cycles); out_terms : (4, 2, nb, n_cycles), J, per cycle
-    out_energy : (6, nb, n_cycles + 1) energies at the cycle boundaries (rows E_*)
+    out_energy : (8, nb, n_cycles + 1) energies and heights at the cycle boundaries (rows E_*)
     """
     n = x.shape[2]
     dt = p[DT]
@@ -347,11 +347,15 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
 
 @njit(cache=True)
 def _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference, out, at):
-    """Energies of cell b at a cycle boundary into ``out[:, b, at]`` (rows E_*), J and m."""
+    """Energies of cell b at a cycle boundary into ``out[:, b, at]`` (rows E_*), J, and its
+    centre-of-mass height and lowest and highest sphere centre, m."""
     n = x.shape[2]
     dt = p[DT]
     trans = rot = heights = force2 = torque2 = 0.0
+    lowest, highest = x[2, b, 0], x[2, b, 0]
     for i in range(n):
+        lowest = min(lowest, x[2, b, i])
+        highest = max(highest, x[2, b, i])
         for c in range(3):
             trans += v[c, b, i] * v[c, b, i]
             rot += w[c, b, i] * w[c, b, i]
@@ -379,6 +383,8 @@ def _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference, out, at):
     out[E_ELASTIC, b, at] = elastic
     out[E_LEDGER, b, at] = trans + rot + shift + potential + elastic
     out[E_COM, b, at] = heights / n
+    out[E_LOWEST, b, at] = lowest
+    out[E_HIGHEST, b, at] = highest
 
 
 @njit(cache=True)

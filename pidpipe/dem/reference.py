@@ -52,7 +52,7 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict
     terms = np.zeros((len(DISSIPATION_TERMS), len(CONTACT_TYPES), n_batch, n_cycles))
     reference = centre_of_mass_height(state)
     boundary = [ledger_energy(scene, state, ws, reference)]
-    com = [reference]
+    heights = [(reference, state.x[2].min(axis=1), state.x[2].max(axis=1))]
     for cycle in range(n_cycles):
         reset_accumulators(ws)
         for _ in range(scene.steps_per_cycle):
@@ -61,6 +61,8 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict
         gross[:, cycle] = ws.gross_wall_work_acc
         terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)
         boundary.append(ledger_energy(scene, state, ws, reference))
-        com.append(centre_of_mass_height(state))
+        heights.append((centre_of_mass_height(state), state.x[2].min(axis=1),
+                        state.x[2].max(axis=1)))
     stack = {key: np.stack([b[key] for b in boundary], axis=1) for key in boundary[0]}
-    return cycle_ledgers(work, gross, terms, stack, np.stack(com, axis=1))
+    com, lowest, highest = (np.stack(column, axis=1) for column in zip(*heights))
+    return cycle_ledgers(work, gross, terms, stack, com, lowest, highest)

@@ -129,17 +129,20 @@ def run_cycles(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_cycle
           ``elastic_j``: plain energies at the cycle boundaries, shape (n_batch, n_cycles + 1);
           the potential energy is zero at the centre of mass the run started from
         - ``ledger_energy_j``: K^ + P + U at the boundaries, shape (n_batch, n_cycles + 1)
-        - ``centre_of_mass_z_m``: at the boundaries, shape (n_batch, n_cycles + 1), m
+        - ``centre_of_mass_z_m``, ``lowest_z_m``, ``highest_z_m``: the centre of mass and the
+          lowest and highest sphere centre at the boundaries (lab frame), shape
+          (n_batch, n_cycles + 1), m
     """
     out = compiled.run_cycles(scene, state, ws, int(n_cycles), centre_of_mass_height(state))
     boundary = {key: out[key] for key in ("kinetic_translational", "kinetic_rotational",
                                           "potential", "elastic", "ledger")}
     return cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
-                         out["centre_of_mass_z_m"])
+                         out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
 
 
 def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
-                  boundary: dict[str, np.ndarray], com: np.ndarray) -> dict:
+                  boundary: dict[str, np.ndarray], com: np.ndarray, lowest: np.ndarray,
+                  highest: np.ndarray) -> dict:
     """The per-cycle record of :func:`run_cycles` from its parts.
 
     Parameters
@@ -151,8 +154,8 @@ def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
     boundary : dict of ndarray, each (n_batch, n_cycles + 1)
         ``kinetic_translational``, ``kinetic_rotational``, ``potential``, ``elastic`` and
         ``ledger`` at the cycle boundaries, J.
-    com : ndarray, shape (n_batch, n_cycles + 1)
-        Centre-of-mass height at the boundaries, m.
+    com, lowest, highest : ndarray, shape (n_batch, n_cycles + 1)
+        Centre-of-mass height, and the lowest and highest sphere centre, at the boundaries, m.
     """
     change = np.diff(boundary["ledger"], axis=1)
     out = dict(wall_work_j=work, gross_work_j=gross, energy_change_j=change,
@@ -164,6 +167,7 @@ def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
         out[f"{key}_j"] = boundary[key]
     out["ledger_energy_j"] = boundary["ledger"]
     out["centre_of_mass_z_m"] = com
+    out["lowest_z_m"], out["highest_z_m"] = lowest, highest
     return out
 
 
