@@ -45,7 +45,7 @@ E_TRANS, E_ROT, E_POT, E_ELASTIC, E_LEDGER, E_COM, E_LOWEST, E_HIGHEST = 0, 1, 2
 N_ENERGY_ROWS = 8
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g_n, a_t, mu,
              gt_over_gn, dt, radius, friction, rotation, update, sx, sy, sz, dprev, tpx, tpy,
              tpz, s2prev):
@@ -135,7 +135,7 @@ def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g
             sx, sy, sz, damp, t3x, t3y, t3z, stored2, sliding)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev):
     """Write a contact's new history (the tail of :func:`_contact`'s tuple, ``h``)."""
     shear[0, b, i, col] = h[10]
@@ -150,7 +150,7 @@ def _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev):
     slide[b, i, col] = h[18]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, p, flags,
             normals, offsets, zw, vw, lag, update, acc):
     """All forces and torques of cell b (gravity included); adds the step's raw energy terms
@@ -242,7 +242,7 @@ def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev
     return wall_fz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def set_up(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_fz, p,
            flags, normals, offsets, amplitude, step0, acc):
     """The forces of the initial state of every cell (no history update), as LIGGGHTS' set-up.
@@ -261,7 +261,7 @@ def set_up(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wa
     _mirror(shear, tenergy, delta, slide)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_fz, p, flags,
         normals, offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work,
         acc_gross, reference, out_work, out_gross, out_terms, out_energy):
@@ -345,7 +345,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
     _mirror(shear, tenergy, delta, slide)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference, out, at):
     """Energies of cell b at a cycle boundary into ``out[:, b, at]`` (rows E_*), J, and its
     centre-of-mass height and lowest and highest sphere centre, m."""
@@ -387,7 +387,7 @@ def _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference, out, at):
     out[E_HIGHEST, b, at] = highest
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _mirror(shear, tenergy, delta, slide):
     """Fill the (j, i) entries of the pair columns from the (i, j) ones, i < j."""
     n = delta.shape[1]
