@@ -13,7 +13,8 @@ equations), written contact by contact instead of as dense arrays:
   tangential damping, tangential spring) by contact type, and at every cycle boundary the
   energies K, K_rot, P, U and the ledger total K^ + P + U.
 
-Cells are independent, so the loop runs cell by cell (outer) and step by step (inner). A sphere
+Cells are independent, so within each cycle the loop runs cell by cell and step by step; the
+wall's motion over the cycle is computed once for all cells. A sphere
 pair is evaluated once, for i < j; its history lives in the (i, j) entries of the dense state
 arrays (:mod:`pidpipe.dem.state`), and the (j, i) copies are filled at the end of each call so
 that the arrays read as the reference's. A pair neither in contact now nor at the last
@@ -26,6 +27,8 @@ missing or failing Numba with the fix.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 try:
     from numba import njit
@@ -135,22 +138,7 @@ def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g
             sx, sy, sz, damp, t3x, t3y, t3z, stored2, sliding)
 
 
-@njit(cache=True, error_model="numpy")
-def _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev):
-    """Write a contact's new history (the tail of :func:`_contact`'s tuple, ``h``)."""
-    shear[0, b, i, col] = h[10]
-    shear[1, b, i, col] = h[11]
-    shear[2, b, i, col] = h[12]
-    dprev[b, i, col] = h[13]
-    tprev[0, b, i, col] = h[14]
-    tprev[1, b, i, col] = h[15]
-    tprev[2, b, i, col] = h[16]
-    s2prev[b, i, col] = h[17]
-    tenergy[b, i, col] = h[17] * 0.5
-    slide[b, i, col] = h[18]
-
-
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, p, flags,
             normals, offsets, zw, vw, lag, update, acc):
     """All forces and torques of cell b (gravity included); adds the step's raw energy terms
@@ -188,7 +176,16 @@ def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev
                          shear[0, b, i, j], shear[1, b, i, j], shear[2, b, i, j],
                          dprev[b, i, j], tprev[0, b, i, j], tprev[1, b, i, j],
                          tprev[2, b, i, j], s2prev[b, i, j])
-            _store(b, i, j, h, shear, tenergy, slide, dprev, tprev, s2prev)
+            shear[0, b, i, j] = h[10]
+            shear[1, b, i, j] = h[11]
+            shear[2, b, i, j] = h[12]
+            dprev[b, i, j] = h[13]
+            tprev[0, b, i, j] = h[14]
+            tprev[1, b, i, j] = h[15]
+            tprev[2, b, i, j] = h[16]
+            s2prev[b, i, j] = h[17]
+            tenergy[b, i, j] = h[17] * 0.5
+            slide[b, i, j] = h[18]
             f[0, b, i] += h[0]
             f[1, b, i] += h[1]
             f[2, b, i] += h[2]
@@ -224,7 +221,16 @@ def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev
                          shear[0, b, i, col], shear[1, b, i, col], shear[2, b, i, col],
                          dprev[b, i, col], tprev[0, b, i, col], tprev[1, b, i, col],
                          tprev[2, b, i, col], s2prev[b, i, col])
-            _store(b, i, col, h, shear, tenergy, slide, dprev, tprev, s2prev)
+            shear[0, b, i, col] = h[10]
+            shear[1, b, i, col] = h[11]
+            shear[2, b, i, col] = h[12]
+            dprev[b, i, col] = h[13]
+            tprev[0, b, i, col] = h[14]
+            tprev[1, b, i, col] = h[15]
+            tprev[2, b, i, col] = h[16]
+            s2prev[b, i, col] = h[17]
+            tenergy[b, i, col] = h[17] * 0.5
+            slide[b, i, col] = h[18]
             f[0, b, i] += h[0]
             f[1, b, i] += h[1]
             f[2, b, i] += h[2]
@@ -292,19 +298,31 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
     half_over_m = 0.5 * dt / p[MASS]
     half_over_i = 0.5 * dt / p[INERTIA]
     rotation = flags[1] != 0
+    n_batch = x.shape[1]
+    # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
+    z_unit = np.empty(steps_per_cycle)
+    v_unit = np.empty(steps_per_cycle)
+    u_unit = np.empty(steps_per_cycle)
     half_phase = 0.5 * omega * dt
-    for b in range(x.shape[1]):
-        amp = amplitude[b]
-        step = step0
+    for b in range(n_batch):
         _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference[b], out_energy, 0)
-        for cycle in range(n_cycles):
+    for cycle in range(n_cycles):
+        first = step0 + cycle * steps_per_cycle
+        for s in range(steps_per_cycle):
+            step = first + s + 1
+            phase = omega * (step * dt)
+            z_unit[s] = math.cos(phase) - 1.0
+            v_unit[s] = -omega * math.sin(phase)
+            u_unit[s] = -2.0 * math.sin(omega * (step - 0.5) * dt) * math.sin(half_phase) / dt
+        for b in range(n_batch):
+            amp = amplitude[b]
             if reset:
                 for k in range(4):
                     acc[k, 0, b] = 0.0
                     acc[k, 1, b] = 0.0
                 acc_work[b] = 0.0
                 acc_gross[b] = 0.0
-            for _ in range(steps_per_cycle):
+            for s in range(steps_per_cycle):
                 for i in range(n):
                     for c in range(3):
                         v[c, b, i] += f[c, b, i] * half_over_m
@@ -313,12 +331,9 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
                     if rotation:
                         for c in range(3):
                             w[c, b, i] += t[c, b, i] * half_over_i
-                step += 1
-                phase = omega * (step * dt)
-                zw = amp * (math.cos(phase) - 1.0)
-                vw = amp * (-omega * math.sin(phase))
-                uw = amp * (-2.0 * math.sin(omega * (step - 0.5) * dt) * math.sin(half_phase)
-                            / dt)
+                zw = amp * z_unit[s]
+                vw = amp * v_unit[s]
+                uw = amp * u_unit[s]
                 fz = _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev,
                              s2prev, p, flags, normals, offsets, zw, vw, vw - uw, True, acc)
                 work = (wall_fz[b] + fz) * (uw * (0.5 * dt))
