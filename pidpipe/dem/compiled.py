@@ -49,6 +49,10 @@ def scene_parameters(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
 class KernelWorkspace:
     """Contact history and ledger accumulators of a batch of cells, for the compiled kernel.
 
+    The kernel keeps the contact history in ``history`` (the state's ``shear`` and
+    ``tangential_energy``, and ``delta`` and ``slide`` here, are written from it after every
+    call, for reading).
+
     Attributes
     ----------
     n : int
@@ -76,9 +80,8 @@ class KernelWorkspace:
         self.amplitude = np.ascontiguousarray(scene.amplitude_m, dtype=float)
         self.delta = np.zeros((n_batch, n, m))
         self.slide = np.zeros((n_batch, n, m), dtype=np.bool_)
-        self.damping_prev = np.zeros((n_batch, n, m))
-        self.stored2_prev = np.zeros((n_batch, n, m))
-        self.tangential_prev = np.zeros((3, n_batch, n, m))
+        self.body = np.zeros((n_batch, n, kernel.N_BODY))
+        self.history = np.zeros((n_batch, n, m, kernel.N_HIST))
         self.terms_raw = np.zeros((4, 2, n_batch))
         self.wall_work_acc = np.zeros(n_batch)
         self.gross_wall_work_acc = np.zeros(n_batch)
@@ -92,9 +95,9 @@ class KernelWorkspace:
     def state_arrays(self, state: State) -> tuple:
         """The kernel's leading arguments, state and history, in its order."""
         return (state.x, state.v, state.omega, state.force, state.torque, state.shear,
-                state.tangential_energy, self.delta, self.slide, self.damping_prev,
-                self.tangential_prev, self.stored2_prev, self.wall_force_z, self.params,
-                self.flags, self.normals, self.offsets, self.amplitude)
+                state.tangential_energy, self.delta, self.slide, self.body, self.history,
+                self.wall_force_z, self.params, self.flags, self.normals, self.offsets,
+                self.amplitude)
 
 
 def _call(function, *args):
@@ -113,7 +116,8 @@ def _call(function, *args):
 
 def set_up(scene: Scene, state: State, ws: KernelWorkspace) -> None:
     """Evaluate the forces of the initial state (LIGGGHTS' set-up: no history update)."""
-    _call(kernel.set_up, *ws.state_arrays(state), int(state.step), ws.terms_raw)
+    _call(kernel.set_up, *ws.state_arrays(state), int(state.step))
+    ws.terms_raw.fill(0.0)
     ws.wall_work_acc.fill(0.0)
     ws.gross_wall_work_acc.fill(0.0)
 

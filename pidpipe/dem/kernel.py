@@ -43,6 +43,11 @@ PP, PW = 6, 12                 # start of the particle-particle and particle-wal
 A_N, G_N, A_T, MU, GT_OVER_GN, ENERGY_N = 0, 1, 2, 3, 4, 5   # offsets within a law
 N_PARAMS = 18
 N_WALLS = 8
+# per-sphere columns of the packed body array (x, v, omega, force, torque)
+BX, BV, BW, BF, BT, N_BODY = 0, 3, 6, 9, 12, 15
+# per-contact columns of the packed history: shear, normal damping force, -F_t, k_t |s|^2,
+# overlap, sliding (1.0 or 0.0)
+HS, HD, HT, HS2, HDELTA, HSLIDE, N_HIST = 0, 3, 4, 7, 8, 9, 10
 # rows of the boundary-energy output
 E_TRANS, E_ROT, E_POT, E_ELASTIC, E_LEDGER, E_COM, E_LOWEST, E_HIGHEST = 0, 1, 2, 3, 4, 5, 6, 7
 N_ENERGY_ROWS = 8
@@ -111,11 +116,12 @@ def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g
     spring = math.sqrt(s2) * kt
     cap = abs(fn) * mu
     sliding = spring > cap
-    ratio = min(cap / (spring + 1e-300), 1.0)
-    sx *= ratio
-    sy *= ratio
-    sz *= ratio
-    s2 = s2 * ratio * ratio
+    if sliding:                                       # the Coulomb cap; 1 when sticking
+        ratio = min(cap / (spring + 1e-300), 1.0)
+        sx *= ratio
+        sy *= ratio
+        sz *= ratio
+        s2 = s2 * ratio * ratio
     stored2 = s2 * kt
     gamma_t = 0.0 if sliding else gn * gt_over_gn
     t3x = sx * kt + vtx * gamma_t                     # -F_t
@@ -139,148 +145,193 @@ def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, p, flags,
-            normals, offsets, zw, vw, lag, update, acc):
-    """All forces and torques of cell b (gravity included); adds the step's raw energy terms
-    to ``acc[:, :, b]`` and returns the total z force of the walls on the spheres, N."""
-    n = x.shape[2]
-    friction, rotation = flags[0] != 0, flags[1] != 0
+def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, update):
+    """All forces and torques of one cell (gravity included), written into ``body``.
+
+    ``body`` (n, N_BODY) and ``hist`` (n, n + 8, N_HIST) are the cell's packed arrays. Returns
+    the walls' total z force on the spheres (N) and the step's raw energy terms e0..e3 of the
+    sphere pairs and then of the wall contacts.
+    """
+    n = body.shape[0]
     radius = p[RADIUS]
     dt = p[DT]
     reach2 = 4.0 * radius * radius * (1.0 + 1e-9)
+    torques = friction and rotation
     for i in range(n):
-        f[0, b, i] = 0.0
-        f[1, b, i] = 0.0
-        f[2, b, i] = 0.0
-        if friction and rotation:
-            t[0, b, i] = 0.0
-            t[1, b, i] = 0.0
-            t[2, b, i] = 0.0
+        for c in range(3):
+            body[i, BF + c] = 0.0
+        if torques:
+            for c in range(3):
+                body[i, BT + c] = 0.0
+    p0 = p1 = p2 = p3 = 0.0
     for i in range(n):
+        xi, yi, zi = body[i, BX], body[i, BX + 1], body[i, BX + 2]
         for j in range(i + 1, n):
-            dx = x[0, b, i] - x[0, b, j]
-            dy = x[1, b, i] - x[1, b, j]
-            dz = x[2, b, i] - x[2, b, j]
+            dx = xi - body[j, BX]
+            dy = yi - body[j, BX + 1]
+            dz = zi - body[j, BX + 2]
             r2 = dx * dx + dy * dy + dz * dz
-            if r2 > reach2 and not delta[b, i, j] > 0.0:
+            if r2 > reach2 and not hist[i, j, HDELTA] > 0.0:
                 continue
             r = math.sqrt(r2)
             dl = max(2.0 * radius - r, 0.0)
-            delta[b, i, j] = dl
-            h = _contact(dl, dx / r, dy / r, dz / r,
-                         v[0, b, i] - v[0, b, j], v[1, b, i] - v[1, b, j],
-                         v[2, b, i] - v[2, b, j], w[0, b, i] + w[0, b, j],
-                         w[1, b, i] + w[1, b, j], w[2, b, i] + w[2, b, j], False, 0.0, 0.0,
-                         p[PP + A_N], p[PP + G_N], p[PP + A_T], p[PP + MU],
+            hist[i, j, HDELTA] = dl
+            inv_r = 1.0 / r
+            h = _contact(dl, dx * inv_r, dy * inv_r, dz * inv_r,
+                         body[i, BV] - body[j, BV], body[i, BV + 1] - body[j, BV + 1],
+                         body[i, BV + 2] - body[j, BV + 2], body[i, BW] + body[j, BW],
+                         body[i, BW + 1] + body[j, BW + 1], body[i, BW + 2] + body[j, BW + 2],
+                         False, 0.0, 0.0, p[PP + A_N], p[PP + G_N], p[PP + A_T], p[PP + MU],
                          p[PP + GT_OVER_GN], dt, radius, friction, rotation, update,
-                         shear[0, b, i, j], shear[1, b, i, j], shear[2, b, i, j],
-                         dprev[b, i, j], tprev[0, b, i, j], tprev[1, b, i, j],
-                         tprev[2, b, i, j], s2prev[b, i, j])
-            shear[0, b, i, j] = h[10]
-            shear[1, b, i, j] = h[11]
-            shear[2, b, i, j] = h[12]
-            dprev[b, i, j] = h[13]
-            tprev[0, b, i, j] = h[14]
-            tprev[1, b, i, j] = h[15]
-            tprev[2, b, i, j] = h[16]
-            s2prev[b, i, j] = h[17]
-            tenergy[b, i, j] = h[17] * 0.5
-            slide[b, i, j] = h[18]
-            f[0, b, i] += h[0]
-            f[1, b, i] += h[1]
-            f[2, b, i] += h[2]
-            f[0, b, j] -= h[0]
-            f[1, b, j] -= h[1]
-            f[2, b, j] -= h[2]
-            if friction and rotation:
-                t[0, b, i] += h[3]
-                t[1, b, i] += h[4]
-                t[2, b, i] += h[5]
-                t[0, b, j] += h[3]
-                t[1, b, j] += h[4]
-                t[2, b, j] += h[5]
-            acc[0, 0, b] += h[6]
-            acc[1, 0, b] += h[7]
-            acc[2, 0, b] += h[8]
-            acc[3, 0, b] += h[9]
-    wall_fz = 0.0
+                         hist[i, j, HS], hist[i, j, HS + 1], hist[i, j, HS + 2],
+                         hist[i, j, HD], hist[i, j, HT], hist[i, j, HT + 1], hist[i, j, HT + 2],
+                         hist[i, j, HS2])
+            _keep(hist, i, j, h)
+            body[i, BF] += h[0]
+            body[i, BF + 1] += h[1]
+            body[i, BF + 2] += h[2]
+            body[j, BF] -= h[0]
+            body[j, BF + 1] -= h[1]
+            body[j, BF + 2] -= h[2]
+            if torques:
+                body[i, BT] += h[3]
+                body[i, BT + 1] += h[4]
+                body[i, BT + 2] += h[5]
+                body[j, BT] += h[3]
+                body[j, BT + 1] += h[4]
+                body[j, BT + 2] += h[5]
+            p0 += h[6]
+            p1 += h[7]
+            p2 += h[8]
+            p3 += h[9]
+    wall_fz = w0 = w1 = w2 = w3 = 0.0
     for i in range(n):
+        xi, yi, zi = body[i, BX], body[i, BX + 1], body[i, BX + 2]
         for k in range(N_WALLS):
             col = n + k
             nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
-            dist = nx * x[0, b, i] + ny * x[1, b, i] + nz * x[2, b, i]
+            dist = nx * xi + ny * yi + nz * zi
             dl = (zw * nz + (radius - offsets[k])) - dist
-            if not dl > 0.0 and not delta[b, i, col] > 0.0:
+            if not dl > 0.0 and not hist[i, col, HDELTA] > 0.0:
                 continue
             dl = max(dl, 0.0)
-            delta[b, i, col] = dl
-            h = _contact(dl, nx, ny, nz, v[0, b, i], v[1, b, i], v[2, b, i] - vw,
-                         w[0, b, i], w[1, b, i], w[2, b, i], True, nz, lag,
+            hist[i, col, HDELTA] = dl
+            h = _contact(dl, nx, ny, nz, body[i, BV], body[i, BV + 1], body[i, BV + 2] - vw,
+                         body[i, BW], body[i, BW + 1], body[i, BW + 2], True, nz, lag,
                          p[PW + A_N], p[PW + G_N], p[PW + A_T], p[PW + MU],
                          p[PW + GT_OVER_GN], dt, radius, friction, rotation, update,
-                         shear[0, b, i, col], shear[1, b, i, col], shear[2, b, i, col],
-                         dprev[b, i, col], tprev[0, b, i, col], tprev[1, b, i, col],
-                         tprev[2, b, i, col], s2prev[b, i, col])
-            shear[0, b, i, col] = h[10]
-            shear[1, b, i, col] = h[11]
-            shear[2, b, i, col] = h[12]
-            dprev[b, i, col] = h[13]
-            tprev[0, b, i, col] = h[14]
-            tprev[1, b, i, col] = h[15]
-            tprev[2, b, i, col] = h[16]
-            s2prev[b, i, col] = h[17]
-            tenergy[b, i, col] = h[17] * 0.5
-            slide[b, i, col] = h[18]
-            f[0, b, i] += h[0]
-            f[1, b, i] += h[1]
-            f[2, b, i] += h[2]
-            if friction and rotation:
-                t[0, b, i] += h[3]
-                t[1, b, i] += h[4]
-                t[2, b, i] += h[5]
+                         hist[i, col, HS], hist[i, col, HS + 1], hist[i, col, HS + 2],
+                         hist[i, col, HD], hist[i, col, HT], hist[i, col, HT + 1],
+                         hist[i, col, HT + 2], hist[i, col, HS2])
+            _keep(hist, i, col, h)
+            body[i, BF] += h[0]
+            body[i, BF + 1] += h[1]
+            body[i, BF + 2] += h[2]
+            if torques:
+                body[i, BT] += h[3]
+                body[i, BT + 1] += h[4]
+                body[i, BT + 2] += h[5]
             wall_fz += h[2]
-            acc[0, 1, b] += h[6]
-            acc[1, 1, b] += h[7]
-            acc[2, 1, b] += h[8]
-            acc[3, 1, b] += h[9]
+            w0 += h[6]
+            w1 += h[7]
+            w2 += h[8]
+            w3 += h[9]
     for i in range(n):
-        f[2, b, i] -= p[WEIGHT]
-    return wall_fz
+        body[i, BF + 2] -= p[WEIGHT]
+    return wall_fz, p0, p1, p2, p3, w0, w1, w2, w3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _keep(hist, i, col, h):
+    """Store a contact's new history, the tail of :func:`_contact`'s tuple."""
+    hist[i, col, HS] = h[10]
+    hist[i, col, HS + 1] = h[11]
+    hist[i, col, HS + 2] = h[12]
+    hist[i, col, HT] = h[14]
+    hist[i, col, HT + 1] = h[15]
+    hist[i, col, HT + 2] = h[16]
+    hist[i, col, HD] = h[13]
+    hist[i, col, HS2] = h[17]
+    hist[i, col, HSLIDE] = 1.0 if h[18] else 0.0
 
 
 @njit(cache=True, error_model="numpy")
-def set_up(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_fz, p,
-           flags, normals, offsets, amplitude, step0, acc):
+def _pack(x, v, w, f, t, body):
+    """Copy the state's component-first arrays (3, nb, n) into ``body`` (nb, n, N_BODY)."""
+    for b in range(x.shape[1]):
+        for i in range(x.shape[2]):
+            for c in range(3):
+                body[b, i, BX + c] = x[c, b, i]
+                body[b, i, BV + c] = v[c, b, i]
+                body[b, i, BW + c] = w[c, b, i]
+                body[b, i, BF + c] = f[c, b, i]
+                body[b, i, BT + c] = t[c, b, i]
+
+
+@njit(cache=True, error_model="numpy")
+def _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide):
+    """Copy ``body`` back into the state and export the history as the reference's dense
+    arrays: both (i, j) and (j, i) entries of a pair (the shear of (j, i) is minus that of
+    (i, j)), the wall columns as they are."""
+    nb, n = body.shape[0], body.shape[1]
+    for b in range(nb):
+        for i in range(n):
+            for c in range(3):
+                x[c, b, i] = body[b, i, BX + c]
+                v[c, b, i] = body[b, i, BV + c]
+                w[c, b, i] = body[b, i, BW + c]
+                f[c, b, i] = body[b, i, BF + c]
+                t[c, b, i] = body[b, i, BT + c]
+            for col in range(i + 1, n + N_WALLS):
+                for c in range(3):
+                    shear[c, b, i, col] = hist[b, i, col, HS + c]
+                tenergy[b, i, col] = 0.5 * hist[b, i, col, HS2]
+                delta[b, i, col] = hist[b, i, col, HDELTA]
+                slide[b, i, col] = hist[b, i, col, HSLIDE] != 0.0
+                if col < n:
+                    for c in range(3):
+                        shear[c, b, col, i] = -hist[b, i, col, HS + c]
+                    tenergy[b, col, i] = tenergy[b, i, col]
+                    delta[b, col, i] = delta[b, i, col]
+                    slide[b, col, i] = slide[b, i, col]
+
+
+@njit(cache=True, error_model="numpy")
+def set_up(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
+           offsets, amplitude, step0):
     """The forces of the initial state of every cell (no history update), as LIGGGHTS' set-up.
 
-    ``wall_fz`` (n_batch,) receives the walls' z force; the energy terms of this evaluation
-    are not counted (``acc`` is zeroed).
+    Arrays as for :func:`run`; ``wall_fz`` (nb,) receives the walls' z force. The energy terms
+    of this evaluation are not counted.
     """
+    _pack(x, v, w, f, t, body)
     omega = p[OMEGA]
     phase = omega * (step0 * p[DT])
     for b in range(x.shape[1]):
         zw = amplitude[b] * (math.cos(phase) - 1.0)
         vw = amplitude[b] * (-omega * math.sin(phase))
-        wall_fz[b] = _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev,
-                             s2prev, p, flags, normals, offsets, zw, vw, 0.0, False, acc)
-    acc[:] = 0.0
-    _mirror(shear, tenergy, delta, slide)
+        out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
+                      vw, 0.0, False)
+        wall_fz[b] = out[0]
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
 
 @njit(cache=True, error_model="numpy")
-def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_fz, p, flags,
-        normals, offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work,
-        acc_gross, reference, out_work, out_gross, out_terms, out_energy):
+def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
+        offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work, acc_gross,
+        reference, out_work, out_gross, out_terms, out_energy):
     """Advance every cell by ``n_cycles * steps_per_cycle`` steps from step ``step0``.
 
     Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
     ----------
     x, v, w, f, t : (3, nb, n) positions m, velocities m/s, angular velocities rad/s, forces N,
-        torques N m; updated in place
-    shear, tprev : (3, nb, n, m) tangential history m, and -F_t of the last step N
-    tenergy, delta, dprev, s2prev : (nb, n, m) spring energy J, overlap m, the last step's
-        normal damping force N and k_t |s|^2 J
-    slide : (nb, n, m) bool, sliding at the last step
+        torques N m; read at the start, written at the end
+    shear : (3, nb, n, m); tenergy, delta : (nb, n, m); slide : (nb, n, m) bool
+        Written at the end from the history (tangential history m, its spring energy J, the
+        overlaps m, sliding at the last step)
+    body : (nb, n, N_BODY), hist : (nb, n, m, N_HIST)
+        The kernel's packed state and contact history (hist is kept between calls and only
+        its i < j entries and wall columns are used)
     wall_fz : (nb,) walls' z force at the last step, N
     p, flags : the scene's parameters and (friction, rotation) switches
     normals, offsets : (8, 3), (8,) the cell's planes at rest
@@ -292,12 +343,13 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
     out_work, out_gross : (nb, n_cycles); out_terms : (4, 2, nb, n_cycles), J, per cycle
     out_energy : (8, nb, n_cycles + 1) energies and heights at the cycle boundaries (rows E_*)
     """
+    _pack(x, v, w, f, t, body)
     n = x.shape[2]
     dt = p[DT]
     omega = p[OMEGA]
     half_over_m = 0.5 * dt / p[MASS]
     half_over_i = 0.5 * dt / p[INERTIA]
-    rotation = flags[1] != 0
+    friction, rotation = flags[0] != 0, flags[1] != 0
     n_batch = x.shape[1]
     # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
     z_unit = np.empty(steps_per_cycle)
@@ -305,7 +357,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
     u_unit = np.empty(steps_per_cycle)
     half_phase = 0.5 * omega * dt
     for b in range(n_batch):
-        _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference[b], out_energy, 0)
+        _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, 0])
     for cycle in range(n_cycles):
         first = step0 + cycle * steps_per_cycle
         for s in range(steps_per_cycle):
@@ -315,6 +367,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
             v_unit[s] = -omega * math.sin(phase)
             u_unit[s] = -2.0 * math.sin(omega * (step - 0.5) * dt) * math.sin(half_phase) / dt
         for b in range(n_batch):
+            cell, history = body[b], hist[b]
             amp = amplitude[b]
             if reset:
                 for k in range(4):
@@ -322,32 +375,47 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
                     acc[k, 1, b] = 0.0
                 acc_work[b] = 0.0
                 acc_gross[b] = 0.0
+            fz_prev = wall_fz[b]
+            work_sum = acc_work[b]
+            gross_sum = acc_gross[b]
             for s in range(steps_per_cycle):
                 for i in range(n):
                     for c in range(3):
-                        v[c, b, i] += f[c, b, i] * half_over_m
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
                     for c in range(3):
-                        x[c, b, i] += v[c, b, i] * dt
+                        cell[i, BX + c] += cell[i, BV + c] * dt
                     if rotation:
                         for c in range(3):
-                            w[c, b, i] += t[c, b, i] * half_over_i
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
                 zw = amp * z_unit[s]
                 vw = amp * v_unit[s]
                 uw = amp * u_unit[s]
-                fz = _forces(b, x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev,
-                             s2prev, p, flags, normals, offsets, zw, vw, vw - uw, True, acc)
-                work = (wall_fz[b] + fz) * (uw * (0.5 * dt))
-                wall_fz[b] = fz
-                acc_work[b] += work
-                acc_gross[b] += abs(work)
+                out = _forces(cell, history, p, friction, rotation, normals, offsets, zw, vw,
+                              vw - uw, True)
+                fz = out[0]
+                work = (fz_prev + fz) * (uw * (0.5 * dt))
+                fz_prev = fz
+                work_sum += work
+                gross_sum += abs(work)
+                acc[0, 0, b] += out[1]
+                acc[1, 0, b] += out[2]
+                acc[2, 0, b] += out[3]
+                acc[3, 0, b] += out[4]
+                acc[0, 1, b] += out[5]
+                acc[1, 1, b] += out[6]
+                acc[2, 1, b] += out[7]
+                acc[3, 1, b] += out[8]
                 for i in range(n):
                     for c in range(3):
-                        v[c, b, i] += f[c, b, i] * half_over_m
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
                     if rotation:
                         for c in range(3):
-                            w[c, b, i] += t[c, b, i] * half_over_i
-            out_work[b, cycle] = acc_work[b]
-            out_gross[b, cycle] = acc_gross[b]
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+            wall_fz[b] = fz_prev
+            acc_work[b] = work_sum
+            acc_gross[b] = gross_sum
+            out_work[b, cycle] = work_sum
+            out_gross[b, cycle] = gross_sum
             for kind in range(2):
                 s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
                 damping = dt * s3
@@ -355,62 +423,48 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, dprev, tprev, s2prev, wall_
                 out_terms[1, kind, b, cycle] = 0.5 * s2
                 out_terms[2, kind, b, cycle] = damping
                 out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
-            _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference[b], out_energy,
-                    cycle + 1)
-    _mirror(shear, tenergy, delta, slide)
+            _ledger(cell, history, p, rotation, reference[b], out_energy[:, b, cycle + 1])
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
 
 @njit(cache=True, error_model="numpy")
-def _ledger(b, x, v, w, f, t, shear, delta, p, flags, reference, out, at):
-    """Energies of cell b at a cycle boundary into ``out[:, b, at]`` (rows E_*), J, and its
+def _ledger(body, hist, p, rotation, reference, out):
+    """Energies of one cell at a cycle boundary into ``out`` (rows E_*), J, and its
     centre-of-mass height and lowest and highest sphere centre, m."""
-    n = x.shape[2]
+    n = body.shape[0]
     dt = p[DT]
     trans = rot = heights = force2 = torque2 = 0.0
-    lowest, highest = x[2, b, 0], x[2, b, 0]
+    lowest, highest = body[0, BX + 2], body[0, BX + 2]
     for i in range(n):
-        lowest = min(lowest, x[2, b, i])
-        highest = max(highest, x[2, b, i])
+        z = body[i, BX + 2]
+        lowest = min(lowest, z)
+        highest = max(highest, z)
         for c in range(3):
-            trans += v[c, b, i] * v[c, b, i]
-            rot += w[c, b, i] * w[c, b, i]
-            force2 += f[c, b, i] * f[c, b, i]
-            torque2 += t[c, b, i] * t[c, b, i]
-        heights += x[2, b, i]
+            trans += body[i, BV + c] * body[i, BV + c]
+            rot += body[i, BW + c] * body[i, BW + c]
+            force2 += body[i, BF + c] * body[i, BF + c]
+            torque2 += body[i, BT + c] * body[i, BT + c]
+        heights += z
     trans *= 0.5 * p[MASS]
     rot *= 0.5 * p[INERTIA]
     potential = p[WEIGHT] * (heights - n * reference)
     elastic = 0.0
     for i in range(n):
         for col in range(i + 1, n + N_WALLS):
-            dl = delta[b, i, col]
+            dl = hist[i, col, HDELTA]
             if not dl > 0.0:
                 continue
             law = PP if col < n else PW
-            s2 = shear[0, b, i, col] ** 2 + shear[1, b, i, col] ** 2 + shear[2, b, i, col] ** 2
+            s2 = hist[i, col, HS] ** 2 + hist[i, col, HS + 1] ** 2 + hist[i, col, HS + 2] ** 2
             elastic += p[law + ENERGY_N] * dl ** 2.5 + 0.5 * p[law + A_T] * math.sqrt(dl) * s2
     shift = -dt * dt / (8.0 * p[MASS]) * force2
-    if flags[1] != 0:
+    if rotation:
         shift -= dt * dt / (8.0 * p[INERTIA]) * torque2
-    out[E_TRANS, b, at] = trans
-    out[E_ROT, b, at] = rot
-    out[E_POT, b, at] = potential
-    out[E_ELASTIC, b, at] = elastic
-    out[E_LEDGER, b, at] = trans + rot + shift + potential + elastic
-    out[E_COM, b, at] = heights / n
-    out[E_LOWEST, b, at] = lowest
-    out[E_HIGHEST, b, at] = highest
-
-
-@njit(cache=True, error_model="numpy")
-def _mirror(shear, tenergy, delta, slide):
-    """Fill the (j, i) entries of the pair columns from the (i, j) ones, i < j."""
-    n = delta.shape[1]
-    for b in range(delta.shape[0]):
-        for i in range(n):
-            for j in range(i + 1, n):
-                for c in range(3):
-                    shear[c, b, j, i] = -shear[c, b, i, j]
-                tenergy[b, j, i] = tenergy[b, i, j]
-                delta[b, j, i] = delta[b, i, j]
-                slide[b, j, i] = slide[b, i, j]
+    out[E_TRANS] = trans
+    out[E_ROT] = rot
+    out[E_POT] = potential
+    out[E_ELASTIC] = elastic
+    out[E_LEDGER] = trans + rot + shift + potential + elastic
+    out[E_COM] = heights / n
+    out[E_LOWEST] = lowest
+    out[E_HIGHEST] = highest
