@@ -10,7 +10,7 @@
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in
 # workflow/rules/<stage>.smk, their scripts in workflow/scripts/ (each calls one function of
-# pidpipe.campaign), the grid and the get_* helpers in workflow/rules/common.smk.
+# pidpipe.steps), the grid and the get_* helpers in workflow/rules/common.smk.
 #
 # Failure policy
 # - A case whose LIGGGHTS run fails (EngineError/ParseError) is run once more (a rare MPI_ABORT
@@ -30,11 +30,11 @@
 # interrupted run (Ctrl-C, kill) resumes where it stopped with a plain `snakemake --cores 2`:
 # profiles/default sets rerun-incomplete, so the jobs that were running are redone. After
 # kill -9 (or a power loss) run `snakemake --unlock` once first: Snakemake's lock is left behind
-# and cannot be told from a live run's (tests/test_interruption.py).
+# and cannot be told from a live run's (tests/workflow/test_interruption.py).
 
 import sys
 
-from pidpipe.campaign import workflow_config
+from pidpipe.steps.params import workflow_config
 from pidpipe.errors import ConfigError
 
 

@@ -2,7 +2,7 @@
 
 For a 500 Hz and a 50 Hz case (5 g, 50 % fill, the default fidelity) it reports the wall time,
 the steps per second, and the ratio of the pipeline's wall time (rendering, running, parsing,
-summarising: ``pidpipe.case.run_case``) to the wall time of the LIGGGHTS process and to
+summarising: ``pidpipe.liggghts.shake.run_case``) to the wall time of the LIGGGHTS process and to
 LIGGGHTS' own loop time. Target: pipeline overhead under 5 % of the LIGGGHTS process.
 
 Run: .venv/bin/python benchmarks/bench_case.py
@@ -16,10 +16,10 @@ from pathlib import Path
 
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
-from pidpipe.packing import pour
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
 
 
 def main() -> None:

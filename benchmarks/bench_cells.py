@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
-from pidpipe.scene import replicate_packings
+from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.liggghts.shake import run_case
 
 ACCEL_G, FILL_PCT = 5.0, 50.0
 

@@ -84,12 +84,12 @@ def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int) -> 
 def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Path) -> dict:
     """LIGGGHTS: its loop time for 1 + ``cycles`` cycles of ``n_cells`` cells of the packing.
 
-    More cells than one run may hold (:data:`pidpipe.replicate_cells.MAX_CELLS`) run as equal
+    More cells than one run may hold (:data:`pidpipe.cell.layout.MAX_CELLS`) run as equal
     runs of fewer cells, one after the other; their particle-steps and loop times add up.
     """
-    from pidpipe.case import run_case
     from pidpipe.cases import CaseSpec
-    from pidpipe.replicate_cells import MAX_CELLS
+    from pidpipe.cell.layout import MAX_CELLS
+    from pidpipe.liggghts.shake import run_case
 
     config = copy.deepcopy(config)
     config["fidelity"].update(transient_cycles=1, transient_min_time_s=0.0,
@@ -118,7 +118,7 @@ def main() -> None:
     parser.add_argument("--cycles", type=int, default=4, help="timed cycles per scene")
     parser.add_argument("--no-liggghts", action="store_true", help="time the compiled DEM only")
     args = parser.parse_args()
-    from pidpipe.packing import pour
+    from pidpipe.liggghts.pour import pour
 
     config = load_config()
     load_start = os.getloadavg()[0]

@@ -27,14 +27,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from _record import append
 
+from pidpipe.cell.packing import cell_from_config
+from pidpipe.cell.patch import ring_centres
 from pidpipe.config import load_config
-from pidpipe.packing import cell_from_config
-from pidpipe.patch import ring_centres
-from pidpipe.scene import replicate_packings, run_patch
-from pidpipe.scene_study import usable_packings
+from pidpipe.liggghts.patch_run import run_patch
+from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.studies.scene import usable_packings
 
 WORK = Path(__file__).resolve().parent.parent / "results" / "work" / "scene"
 PACKINGS = 19

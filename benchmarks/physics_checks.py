@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
-from pidpipe.impacts import pair_restitution, wall_restitution
-from pidpipe.packing import pour
+from pidpipe.liggghts.impacts import pair_restitution, wall_restitution
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
 
 VALIDATION_CASES = [(1000, 10), (1000, 1), (500, 5), (100, 10), (100, 1)]
 
@@ -78,7 +78,7 @@ def steady_lines(scratch: Path, packing) -> list[str]:
 
 
 def validation_lines(scratch: Path, packing) -> list[str]:
-    from pidpipe.validation import run_validation
+    from pidpipe.studies.validation import run_validation
 
     cfg = load_config()
     cfg["fidelity"].update(transient_cycles=5, measured_cycles=24)

@@ -54,11 +54,12 @@ def _check_case_arguments(args: argparse.Namespace, config: dict) -> None:
 
 def run_case_command(args: argparse.Namespace) -> int:
     """Pour, check and shake one case; print the result."""
-    from pidpipe.case import run_case, write_record
     from pidpipe.cases import CaseSpec
+    from pidpipe.cell.packing import check_packing
     from pidpipe.config import load_config
-    from pidpipe.fidelity import transient_cycles_for
-    from pidpipe.packing import check_packing, pour
+    from pidpipe.liggghts.pour import pour
+    from pidpipe.liggghts.shake import run_case, write_record
+    from pidpipe.measurement.timestep import transient_cycles_for
 
     config = load_config(args.config)
     _check_case_arguments(args, config)
@@ -112,7 +113,12 @@ def format_result(record: dict) -> str:
 def check_config_command(args: argparse.Namespace) -> int:
     """Validate the config and print what the campaign will run."""
     from pidpipe.cases import grid_cases
-    from pidpipe.config import budget_spheres, full_cell_spheres, load_config, spheres_for_fill
+    from pidpipe.config import (
+        budget_spheres,
+        full_cell_spheres,
+        load_config,
+        spheres_for_fill,
+    )
 
     config = load_config(args.config)
     grid = config["grid"]

@@ -18,10 +18,21 @@ config); the reference: :mod:`.contacts` (forces and energy terms), :mod:`.integ
 
 from pidpipe.dem.compiled import KernelError, KernelWorkspace
 from pidpipe.dem.contacts import DISSIPATION_TERMS, Workspace, compute_forces
-from pidpipe.dem.energy import elastic_energy, kinetic_energy, ledger_energy, total_energy
+from pidpipe.dem.energy import (
+                             elastic_energy,
+                             kinetic_energy,
+                             ledger_energy,
+                             total_energy,
+)
 from pidpipe.dem.integrator import set_up, step
-from pidpipe.dem.run import (CONTACT_TYPES, SOLVER_NAME, advance, run_cycles, simulate_cell,
-                             start)
+from pidpipe.dem.run import (
+                             CONTACT_TYPES,
+                             SOLVER_NAME,
+                             advance,
+                             run_cycles,
+                             simulate_cell,
+                             start,
+)
 from pidpipe.dem.scene import ContactLaw, Material, Scene, choose_timestep, make_scene
 from pidpipe.dem.state import State, initial_state
 

@@ -1,10 +1,10 @@
-"""One case in the compiled DEM, with the record of the LIGGGHTS path (:func:`pidpipe.case.run_case`).
+"""One case in the compiled DEM, with the record of the LIGGGHTS path (:func:`pidpipe.liggghts.shake.run_case`).
 
 The same config, case and packings (LIGGGHTS' pour), the k cells of ``fidelity.cells_per_run``
 integrated as one batch, and the same rules on the result: the steady-state verdict on the k
-cells' summed series (:func:`pidpipe.steady_state.assess_steady_state`), the mean cell's C_eq
+cells' summed series (:func:`pidpipe.measurement.steady_state.assess_steady_state`), the mean cell's C_eq
 with a standard error that includes the packing scatter
-(:func:`pidpipe.replicate_cells.summarise_cells`), containment flags at every cycle end. The
+(:func:`pidpipe.measurement.cells.summarise_cells`), containment flags at every cycle end. The
 record has every key of the LIGGGHTS record (``solver`` and ``engine.name`` say which produced
 it); ``cycles`` holds the k cells' series summed, with the term-by-term dissipation as
 ``dissipated_j`` (the DEM's E_d; the balance is under ``dem``), and ``dem`` the DEM's own
@@ -21,17 +21,17 @@ from typing import Sequence
 
 import numpy as np
 
-from pidpipe.case import RECORD_VERSION, as_packing_list, containment_flags
 from pidpipe.cases import CaseSpec, regime
-from pidpipe.damping import displacement_amplitude_m
+from pidpipe.cell.packing import Packing, check_packing
 from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.from_config import scene_from_config
 from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles, start
-from pidpipe.fidelity import plan_timestep, transient_cycles_for
-from pidpipe.packing import Packing, check_packing
-from pidpipe.parsing import CycleSeries
-from pidpipe.replicate_cells import summarise_cells
-from pidpipe.steady_state import assess_steady_state
+from pidpipe.liggghts.parsing import CycleSeries
+from pidpipe.liggghts.shake import RECORD_VERSION, as_packing_list, containment_flags
+from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.steady_state import assess_steady_state
+from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
+from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 
 ENGINE_NAME = "dem"
 """The value of ``engine`` in the config that selects this path."""

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 
+from pidpipe.cell.packing import cell_from_config
 from pidpipe.config import pair_properties, particle_properties, wall_properties
 from pidpipe.dem.scene import Material, Scene, make_scene
-from pidpipe.fidelity import plan_timestep
-from pidpipe.packing import cell_from_config
+from pidpipe.measurement.timestep import plan_timestep
 
 
 def material(props: dict) -> Material:

@@ -4,11 +4,11 @@ Every function here runs the compiled kernel (:mod:`pidpipe.dem.compiled`); the 
 reference that tests compare it with is :mod:`pidpipe.dem.reference`.
 
 The record of :func:`simulate_cell` has the shape of the LIGGGHTS path's
-(:func:`pidpipe.case.run_case`) so that the two solvers compare case by case: the summary of
-the measured cycles from :func:`pidpipe.damping.summarise_cycles` at the top level, per-cycle
+(:func:`pidpipe.liggghts.shake.run_case`) so that the two solvers compare case by case: the summary of
+the measured cycles from :func:`pidpipe.measurement.statistics.summarise_cycles` at the top level, per-cycle
 arrays (wall work, energy change, dissipation by the balance and term by term, by contact
 type) under ``cycles``, and the fidelity settings. The measured cycles are chosen by the same
-rule as the LIGGGHTS path's (:func:`pidpipe.steady_state.assess_steady_state`): the configured
+rule as the LIGGGHTS path's (:func:`pidpipe.measurement.steady_state.assess_steady_state`): the configured
 transient is a floor, and a longer transient that MSER detects in the run's own series (a bed
 that collapses a few cycles in, say) is discarded too.
 """
@@ -26,9 +26,9 @@ from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.energy import centre_of_mass_height
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State, initial_state
-from pidpipe.damping import summarise_cycles
 from pidpipe.errors import PackingError
-from pidpipe.steady_state import SteadyState, assess_steady_state
+from pidpipe.measurement.statistics import summarise_cycles
+from pidpipe.measurement.steady_state import SteadyState, assess_steady_state
 
 SOLVER_NAME = compiled.KERNEL_NAME
 CONTACT_TYPES: tuple[str, ...] = ("pp", "pw")
@@ -184,7 +184,7 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     transient_cycles, measured_cycles : int
         The configured transient (cycles discarded at least) and the measured cycles; the run
         is their sum, and a cell discards max(transient_cycles, MSER's detected transient), as
-        :func:`pidpipe.case.run_case` does.
+        :func:`pidpipe.liggghts.shake.run_case` does.
     block_cycles : int
         Cycles per block for the standard error of the mean.
     n_cells : int
@@ -196,9 +196,9 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     -------
     list of dict, one per cell of the batch
         ``solver``, ``freq_hz``, ``accel_g``, ``n_spheres``; the keys of
-        :func:`pidpipe.damping.summarise_cycles` for the term-by-term E_d of the measured
+        :func:`pidpipe.measurement.statistics.summarise_cycles` for the term-by-term E_d of the measured
         cycles; ``status`` and ``flags`` (the steady-state checks only), and the keys of
-        :meth:`pidpipe.steady_state.SteadyState.as_record`; ``balance`` (the same summary
+        :meth:`pidpipe.measurement.steady_state.SteadyState.as_record`; ``balance`` (the same summary
         from the energy balance);
         ``balance_mismatch_fraction`` (term-by-term minus balance, over the balance, summed over
         the measured cycles); ``wall_work_cycle_mean_j``; ``dissipated_by_term_j`` (measured
@@ -284,6 +284,6 @@ def fidelity_record(scene: Scene, state: State, transient_cycles: int, measured_
 
 def _summarise(dissipated_j: np.ndarray, freq_hz: float, accel_g: float, n_cells: int,
                block_cycles: int) -> dict:
-    """:func:`pidpipe.damping.summarise_cycles` of one cell's measured cycles."""
+    """:func:`pidpipe.measurement.statistics.summarise_cycles` of one cell's measured cycles."""
     return summarise_cycles(np.asarray(dissipated_j, dtype=float), freq_hz, accel_g, n_cells,
                             block_cycles)

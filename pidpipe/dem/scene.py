@@ -1,7 +1,7 @@
 """The one-cell scene of the NumPy DEM: materials, contact laws, base motion and timestep.
 
 Everything here is immutable and computed once, before the time loop. The contact laws are
-LIGGGHTS 3.8's ``model hertz tangential history`` (see :mod:`pidpipe.contact`), written as
+LIGGGHTS 3.8's ``model hertz tangential history`` (see :mod:`pidpipe.physics.contact`), written as
 four coefficients so that the force kernel needs only sqrt(delta) and delta^(1/4):
 
 - k_n     = a_n sqrt(delta),  a_n = 4/3 E* sqrt(R*)                         [N/m]
@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pidpipe import contact
-from pidpipe.geometry import HexCell
+from pidpipe.cell.geometry import HexCell
+from pidpipe.physics import contact
 
 _SQRT_FIVE_SIXTHS = math.sqrt(5.0 / 6.0)
 

@@ -1,6 +1,7 @@
-"""Rule optimise_environments: SLSQP per environment (pidpipe.campaign.optimise_surrogate)."""
+"""Rule optimise_environments: SLSQP per environment (pidpipe.steps.design.optimise_surrogate)."""
 
-from pidpipe.campaign import optimise_surrogate, run_step
+from pidpipe.steps.design import optimise_surrogate
+from pidpipe.steps.run import run_step
 
 run_step(
     optimise_surrogate,

@@ -1,0 +1,30 @@
+"""The config: ``config.yaml`` validated against its JSON schema, and what follows from it.
+
+:mod:`.schema` loads and validates (:func:`load_config`, :func:`validate_config`);
+:mod:`.derived` computes what follows from a validated config (material and pair properties,
+spheres per fill, the sphere budget).
+"""
+
+from pidpipe.config.derived import (
+                                    budget_spheres,
+                                    coupon_mass_kg,
+                                    full_cell_spheres,
+                                    pair_properties,
+                                    particle_properties,
+                                    spheres_for_fill,
+                                    wall_properties,
+)
+from pidpipe.config.schema import (
+                                    DEFAULT_CONFIG_PATH,
+                                    REPO_ROOT,
+                                    SCHEMA_PATH,
+                                    load_config,
+                                    load_schema,
+                                    validate_config,
+)
+
+__all__ = [
+    "DEFAULT_CONFIG_PATH", "REPO_ROOT", "SCHEMA_PATH", "budget_spheres", "coupon_mass_kg",
+    "full_cell_spheres", "load_config", "load_schema", "pair_properties", "particle_properties",
+    "spheres_for_fill", "validate_config", "wall_properties",
+]
