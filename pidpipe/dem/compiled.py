@@ -19,14 +19,15 @@ from pidpipe.dem import kernel
 from pidpipe.dem.scene import ContactLaw, Scene
 from pidpipe.dem.state import N_WALLS, State
 from pidpipe.dem.walls import wall_planes
-from pidpipe.errors import EngineError
+from pidpipe.errors import PidpipeError
 
 KERNEL_NAME = "numba-dem"
 """The solver named in the records of the compiled DEM."""
 
 
-class KernelError(EngineError):
-    """The compiled DEM kernel could not be built or run."""
+class KernelError(PidpipeError):
+    """The compiled DEM kernel could not be built: it stops the run (no case could run), not
+    one case."""
 
 
 def _law_parameters(law: ContactLaw) -> list[float]:

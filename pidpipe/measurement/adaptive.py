@@ -64,7 +64,7 @@ def run_to_target(config: dict, case: CaseSpec, packings: Packing | Sequence[Pac
     case, packings, workdir
         As for ``run``.
     run : callable
-        ``run(config, case, packings, workdir) -> record`` (:func:`pidpipe.liggghts.shake.run_case`).
+        ``run(config, case, packings, workdir) -> record`` (:func:`pidpipe.liggghts.shake.run_case` or :func:`pidpipe.dem.case.run_dem_case`).
 
     Returns
     -------
@@ -79,7 +79,7 @@ def run_to_target(config: dict, case: CaseSpec, packings: Packing | Sequence[Pac
         return record
     cap = int(fidelity["max_measured_cycles"])
     stages = [int(fidelity["measured_cycles"])]
-    cpu = [record["engine"]["liggghts_cpu_time_s"]]
+    cpu = [record["engine"]["cpu_time_s"]]
     staged = copy.deepcopy(config)
     while len(stages) < MAX_STAGES:
         value, sem = record["ceq_cell_ns_m"], cycle_sem(record)
@@ -88,7 +88,7 @@ def run_to_target(config: dict, case: CaseSpec, packings: Packing | Sequence[Pac
         staged["fidelity"]["measured_cycles"] = cycles_for_target(stages[-1], sem / value, target, cap)
         stages.append(staged["fidelity"]["measured_cycles"])
         record = run(staged, case, packings, Path(workdir))
-        cpu.append(record["engine"]["liggghts_cpu_time_s"])
+        cpu.append(record["engine"]["cpu_time_s"])
     value, sem = record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"]
     record["target"] = {"relative_sem": target, "reached": bool(value > 0.0 and sem <= target * value),
                         "stages": stages, "cpu_time_s": float(sum(cpu))}
