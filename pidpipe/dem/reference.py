@@ -4,7 +4,7 @@ checked against (tests/dem/test_kernel.py), not an engine.
 Same interface as :mod:`pidpipe.dem.run`'s :func:`~pidpipe.dem.run.start`,
 :func:`~pidpipe.dem.run.advance` and :func:`~pidpipe.dem.run.run_cycles`, with the physics of
 :mod:`pidpipe.dem.contacts` (forces and energy terms), :mod:`pidpipe.dem.integrator` (velocity
-Verlet) and :mod:`pidpipe.dem.energy` (the energies at the cycle boundaries). It is 50-500
+Verlet) and :mod:`pidpipe.dem.energy` (the energies at the cycle boundaries). It is 100-400
 times slower than the kernel; nothing outside the tests runs it.
 """
 
