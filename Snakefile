@@ -5,7 +5,8 @@
 #   snakemake --cores 2 --configfile .test/config.yaml   # the reduced CI campaign
 #   snakemake table | surrogate | optimum | figures      # stop after a stage
 #   snakemake --report report.html                       # figures and tables with captions
-#   snakemake --cores 2 validate                         # LIGGGHTS against the NumPy DEM (validation.cases)
+#   snakemake --cores 2 validate                         # every case checked by the compiled DEM (grid.csv)
+#   snakemake --cores 2 validate_chosen                  # validation.cases afresh in LIGGGHTS and the DEM
 #
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in

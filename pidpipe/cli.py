@@ -1,7 +1,8 @@
 """The ``pidpipe`` command.
 
 ``pidpipe case --freq-hz 500 --accel-g 5 --fill-pct 50`` runs one case (pour, tap, shake) and
-prints C_eq with its standard error and the fidelity that produced it; ``--record`` writes the
+prints C_eq with its standard error and the fidelity that produced it (``--engine dem`` shakes
+it in the compiled in-repo DEM instead of LIGGGHTS, on the same LIGGGHTS pour); ``--record`` writes the
 full machine-readable record. ``pidpipe check-config`` validates a config and prints the grid.
 User errors print one line and exit 2, never a traceback.
 """
@@ -32,6 +33,8 @@ def _parser() -> argparse.ArgumentParser:
     case.add_argument("--workdir", type=Path, default=Path("work/cli"),
                       help="folder for decks and LIGGGHTS output (default: work/cli)")
     case.add_argument("--record", type=Path, help="write the case record (JSON) here")
+    case.add_argument("--engine", choices=("liggghts", "dem"),
+                      help="solver that shakes the case (default: the config's engine)")
 
     commands.add_parser("check-config", help="validate the config and print the campaign")
     return parser
@@ -59,11 +62,15 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.config import load_config
     from pidpipe.config.settings import PourSettings, ShakeSettings
     from pidpipe.liggghts.pour import pour
-    from pidpipe.liggghts.shake import run_case, write_record
+    from pidpipe.liggghts.shake import write_record
+    from pidpipe.steps.cases import case_runner
 
     config = load_config(args.config)
+    if args.engine:
+        config["engine"] = args.engine
     _check_case_arguments(args, config)
     pouring, shaking = PourSettings.from_config(config), ShakeSettings.from_config(config)
+    run_case = case_runner(shaking)
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
     cells = shaking.sampling.cells_per_run
     replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
@@ -74,7 +81,7 @@ def run_case_command(args: argparse.Namespace) -> int:
         check_packing(packing, case.case_id)
     cycles = shaking.sampling.transient_cycles_at(case.freq_hz) + shaking.sampling.measured_cycles
     print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
-          f"for {cycles} cycles ...", file=sys.stderr, flush=True)
+          f"for {cycles} cycles in {shaking.engine} ...", file=sys.stderr, flush=True)
     record = run_case(shaking, case, packings, args.workdir / case.case_id)
     if args.record:
         write_record(record, args.record)
@@ -100,8 +107,8 @@ def format_result(record: dict) -> str:
         f"  fidelity        : dt = {fid['timestep_s']:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
         f"{fid['transient_cycles']} transient + {record['n_cycles']} measured cycles, "
         f"E scale {fid['youngs_modulus_scale']:g}, seed {fid['seed']}",
-        f"  engine          : {record['engine']['liggghts_version'].split(',')[0]}, "
-        f"{record['engine']['liggghts_wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
+        f"  engine          : {record['solver']} ({record['engine']['version'].split(',')[0]}), "
+        f"{record['engine']['wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
     ]
     if record.get("cells"):
         lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "

@@ -260,9 +260,10 @@ class Environment:
 
 @dataclass(frozen=True)
 class ShakeSettings:
-    """Everything a case's shaking run reads: the scene's inputs and the sampling.
+    """Everything a case's shaking run reads: the scene's inputs, the sampling and the engine.
 
     Built from the case stage's part of the config (``stage_config(config, "case")``).
+    ``engine`` is ``liggghts`` (the reference) or ``dem`` (the compiled in-repo DEM).
     """
 
     geometry: Geometry
@@ -270,12 +271,15 @@ class ShakeSettings:
     fidelity: Fidelity
     sampling: Sampling
     coupon_n_cells: int
+    engine: str = "liggghts"
 
     @classmethod
     def from_config(cls, config: dict) -> "ShakeSettings":
+        # the case stage's part names the engine only when it is not LIGGGHTS (stages.py)
         return cls(Geometry.from_config(config), Materials.from_config(config),
                    Fidelity.from_config(config), Sampling.from_config(config),
-                   int(config["geometry"]["coupon_n_cells"]))
+                   int(config["geometry"]["coupon_n_cells"]),
+                   str(config.get("engine", "liggghts")))
 
 
 @dataclass(frozen=True)

@@ -64,4 +64,10 @@ def stage_config(config: dict, stage: str) -> dict:
     for top, subkeys in keys.items():
         section = config[top]
         part[top] = dict(section) if subkeys is None else {k: section[k] for k in subkeys}
+    if stage == "case":
+        # the solver, named only when it is not LIGGGHTS: records of a LIGGGHTS campaign keep
+        # the params they were made with, and a switch of engine reruns every case
+        engine = config.get("engine", "liggghts")
+        if engine != "liggghts":
+            part["engine"] = engine
     return sorted_keys(part)

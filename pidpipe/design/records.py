@@ -40,6 +40,8 @@ _SETTING_COLUMNS = {
     "friction": ("fidelity", "friction"),
     "seed": ("fidelity", "seed"),
     "cells_per_run": ("fidelity", "cells_per_run"),
+    "solver": ("solver",),
+    "solver_version": ("engine", "version"),
     "liggghts_version": ("engine", "liggghts_version"),
 }
 
@@ -51,7 +53,8 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
-    "cells_per_run", "liggghts_version", "wall_time_s", "liggghts_wall_time_s", "message",
+    "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
+    "solver_wall_time_s", "liggghts_wall_time_s", "message",
 )
 
 
@@ -163,6 +166,8 @@ def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dic
     row["wall_time_s"] = float(sum(_number(r.get("wall_time_s")) for r in timed)) if timed else math.nan
     row["liggghts_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "liggghts_wall_time_s")))
                                              for r in timed)) if timed else math.nan)
+    row["solver_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "wall_time_s")))
+                                           for r in timed)) if timed else math.nan)
     reference = (used or replicates)[0]
     for column, keys in _SETTING_COLUMNS.items():
         row[column] = _get(reference, keys)

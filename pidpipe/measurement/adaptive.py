@@ -66,7 +66,8 @@ def run_to_target(settings: ShakeSettings, case: CaseSpec, packings: Packing | S
     case, packings, workdir
         As for ``run``.
     run : callable
-        ``run(settings, case, packings, workdir) -> record`` (:func:`pidpipe.liggghts.shake.run_case`).
+        ``run(settings, case, packings, workdir) -> record``
+        (:func:`pidpipe.liggghts.shake.run_case` or :func:`pidpipe.dem.case.run_dem_case`).
 
     Returns
     -------
@@ -81,7 +82,7 @@ def run_to_target(settings: ShakeSettings, case: CaseSpec, packings: Packing | S
         return record
     cap = sampling.max_measured_cycles
     stages = [sampling.measured_cycles]
-    cpu = [record["engine"]["liggghts_cpu_time_s"]]
+    cpu = [record["engine"]["cpu_time_s"]]
     while len(stages) < MAX_STAGES:
         value, sem = record["ceq_cell_ns_m"], cycle_sem(record)
         if not (value > 0.0 and math.isfinite(sem)) or sem <= target * value or stages[-1] >= cap:
@@ -89,7 +90,7 @@ def run_to_target(settings: ShakeSettings, case: CaseSpec, packings: Packing | S
         stages.append(cycles_for_target(stages[-1], sem / value, target, cap))
         staged = replace(settings, sampling=replace(sampling, measured_cycles=stages[-1]))
         record = run(staged, case, packings, Path(workdir))
-        cpu.append(record["engine"]["liggghts_cpu_time_s"])
+        cpu.append(record["engine"]["cpu_time_s"])
     value, sem = record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"]
     record["target"] = {"relative_sem": target, "reached": bool(value > 0.0 and sem <= target * value),
                         "stages": stages, "cpu_time_s": float(sum(cpu))}

@@ -1,4 +1,5 @@
-"""The case stage's step: shake one case, retry a LIGGGHTS failure once, record a case that fails.
+"""The case stage's step: shake one case with the configured engine (LIGGGHTS or the compiled
+DEM), retry an engine failure once, record a case that fails.
 
 Failure policy (see also the Snakefile header): a case whose LIGGGHTS run fails
 (:class:`~pidpipe.errors.EngineError` or :class:`~pidpipe.errors.ParseError`) is run once more;
@@ -14,7 +15,7 @@ import logging
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config.settings import ShakeSettings
-from pidpipe.errors import EngineError, ParseError
+from pidpipe.errors import EngineError, ParseError, PidpipeError
 
 logger = logging.getLogger("pidpipe.campaign")
 
@@ -59,13 +60,12 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The packing does not fit or has not settled.
     """
     from pidpipe.cell.packing import load_packing
-    from pidpipe.liggghts.process import find_liggghts
-    from pidpipe.liggghts.shake import run_case, write_record
+    from pidpipe.liggghts.shake import write_record
     from pidpipe.measurement.adaptive import run_to_target
 
     case = CaseSpec.from_id(case_id)
     settings = ShakeSettings.from_config(config)
-    find_liggghts()
+    run_case = case_runner(settings)
     packings = [load_packing(path) for path in packing_paths]
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
@@ -76,8 +76,9 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
             continue
         record["engine_attempts"] = attempt
-        logger.info("case %s: status %s%s, C_eq(coupon) = %.6g +- %.2g N*s/m over %d cycles, "
-                    "wall time %.1f s (attempt %d); LIGGGHTS files in %s", case_id, record["status"],
+        logger.info("case %s (%s): status %s%s, C_eq(coupon) = %.6g +- %.2g N*s/m over %d "
+                    "cycles, wall time %.1f s (attempt %d); files in %s", case_id,
+                    record["solver"], record["status"],
                     f" ({', '.join(record['flags'])})" if record["flags"] else "",
                     record["ceq_coupon_ns_m"], record["ceq_coupon_sem_ns_m"], record["n_cycles"],
                     record["wall_time_s"], attempt, workdir)
@@ -95,6 +96,40 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     return record
 
 
+def case_runner(settings: ShakeSettings):
+    """The function that shakes a case with the configured ``engine``.
+
+    ``liggghts``: :func:`pidpipe.liggghts.shake.run_case` (LIGGGHTS must be installed);
+    ``dem``: :func:`pidpipe.dem.case.run_dem_case` (numba must be installed). Both take
+    ``(settings, case, packings, workdir)`` and return records with the same keys.
+
+    Raises
+    ------
+    EngineError
+        LIGGGHTS is not installed (engine liggghts).
+    PidpipeError
+        numba is not installed (engine dem); the message names the fix.
+    """
+    if settings.engine == "dem":
+        try:
+            from pidpipe.dem.case import run_dem_case
+        except ImportError as exc:              # numba missing: the message names the fix
+            raise PidpipeError(str(exc)) from None
+        return run_dem_case
+    from pidpipe.liggghts.process import find_liggghts
+    from pidpipe.liggghts.shake import run_case
+    find_liggghts()
+    return run_case
+
+
+def solver_name(settings: ShakeSettings) -> str:
+    """The ``solver`` a record of the configured engine names."""
+    if settings.engine == "dem":
+        from pidpipe.dem.run import SOLVER_NAME
+        return SOLVER_NAME
+    return "liggghts"
+
+
 def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds: list[int],
                   message: str) -> dict:
     """The record of a case whose run failed: its coordinates, the settings it ran with, no values.
@@ -107,7 +142,7 @@ def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds
     seeds = [int(seed) for seed in seeds]
     nan = float("nan")
     return {
-        "solver": "liggghts", "case_id": case.case_id, "freq_hz": case.freq_hz,
+        "solver": solver_name(settings), "case_id": case.case_id, "freq_hz": case.freq_hz,
         "accel_g": case.accel_g, "fill_pct": case.fill_pct, "replicate": case.replicate,
         "n_spheres": n_spheres, "status": "failed", "flags": [], "message": message,
         "ceq_coupon_ns_m": nan, "ceq_coupon_sem_ns_m": nan, "ceq_cell_ns_m": nan,
@@ -123,7 +158,8 @@ def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds
             "cells_per_run": len(seeds),
             "seed": seeds[0],
             "seeds": seeds,
+            "engine": settings.engine,
         },
-        "engine": {},
+        "engine": {"name": settings.engine, "solver": solver_name(settings)},
         "wall_time_s": nan,
     }

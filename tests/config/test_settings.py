@@ -9,8 +9,16 @@ import pytest
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config, spheres_for_fill
-from pidpipe.config.settings import (Budget, Environment, Fidelity, Fill, Materials,
-                                     PourSettings, Sampling, ShakeSettings)
+from pidpipe.config.settings import (
+    Budget,
+    Environment,
+    Fidelity,
+    Fill,
+    Materials,
+    PourSettings,
+    Sampling,
+    ShakeSettings,
+)
 from pidpipe.config.stages import stage_config
 from pidpipe.physics.contact import rayleigh_time
 

@@ -43,7 +43,7 @@ def test_case_record_matches_the_liggghts_record_keys(settled_11):
                 "ed_cycle_sem_j", "ceq_cell_ns_m", "ceq_coupon_ns_m", "cycles", "fidelity",
                 "wall_time_s", "wall_work_cycle_mean_j"):
         assert key in record
-    assert record["solver"] == "numpy-dem" and record["n_spheres"] == 11
+    assert record["solver"] == "numba-dem" and record["n_spheres"] == 11
     assert record["fidelity"]["steps_per_cycle"] * record["fidelity"]["timestep_s"] == \
         pytest.approx(1e-3)
     assert record["fidelity"]["rayleigh_fraction"] <= 0.2 and record["fidelity"]["seed"] == 7

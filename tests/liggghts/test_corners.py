@@ -49,6 +49,12 @@ def corner_config(timestep_fraction: float) -> dict:
 @pytest.fixture(scope="module")
 def corner_records(tmp_path_factory):
     """Records of every corner at dt and dt/2: {(f, G, r): (record at dt, record at dt/2)}."""
+    return shake_corners(tmp_path_factory, run_case)
+
+
+def shake_corners(tmp_path_factory, run) -> dict:
+    """Every corner at dt and dt/2 shaken by ``run`` (an engine's case function) on LIGGGHTS'
+    pour: {(f, G, r): (record at dt, record at dt/2)}."""
     base = corner_config(load_config()["fidelity"]["timestep_rayleigh_fraction"])
     halved = copy.deepcopy(base)
     halved["fidelity"]["timestep_rayleigh_fraction"] /= 2.0
@@ -61,9 +67,10 @@ def corner_records(tmp_path_factory):
         (freq, accel, fill), config, label = job
         case = CaseSpec(freq, accel, fill)
         workdir = tmp_path_factory.mktemp(f"{case.case_id}_{label}")
-        return run_case(ShakeSettings.from_config(config), case, packings[fill], workdir)
+        return run(ShakeSettings.from_config(config), case, packings[fill], workdir)
 
-    with ThreadPoolExecutor(max_workers=2) as pool:  # LIGGGHTS runs in subprocesses
+    with ThreadPoolExecutor(max_workers=2) as pool:  # LIGGGHTS runs in subprocesses, the
+        # compiled DEM releases no GIL: its jobs just run one after the other
         records = list(pool.map(shake, jobs))
     return {corner: (records[2 * i], records[2 * i + 1]) for i, corner in enumerate(CORNERS)}
 

@@ -33,7 +33,7 @@ def fake_run(ceq: float, scatter: float):
         calls.append(n)
         return {"ceq_cell_ns_m": ceq, "ceq_cell_sem_ns_m": scatter / math.sqrt(n),
                 "ceq_cell_cycle_sem_ns_m": scatter / math.sqrt(n),
-                "engine": {"liggghts_cpu_time_s": 0.1 * n}, "fidelity": {"measured_cycles": n}}
+                "engine": {"cpu_time_s": 0.1 * n}, "fidelity": {"measured_cycles": n}}
 
     return run, calls
 

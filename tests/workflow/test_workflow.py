@@ -135,6 +135,30 @@ def test_figures_are_written_as_png_and_pdf(campaign_dir):
         assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.stat().st_size > 5_000
 
 
+def test_validate_checks_every_case_with_the_dem_on_the_campaigns_packings(campaign_dir):
+    """`snakemake validate` reuses the LIGGGHTS records (no LIGGGHTS job runs) and shakes every
+    case in the compiled DEM; grid.csv has one row a case with both C_eq and z_combined."""
+    dry = planned_jobs(snakemake(campaign_dir, "validate", "--dry-run").stdout)
+    assert dry == {"validate_case": 8, "validate": 1}
+    run = snakemake(campaign_dir, "validate")
+    assert run.returncode == 0, run.stdout[-3000:]
+    grid = pd.read_csv(campaign_dir / "results" / "validation" / "grid.csv")
+    table = pd.read_csv(campaign_dir / "results" / "ceq_table.csv")
+    assert sorted(grid["case_id"]) == sorted(table["case_id"])
+    for column in ("ceq_cell_liggghts_ns_m", "ceq_cell_dem_ns_m", "ceq_cell_dem_sem_ns_m",
+                   "z_combined"):
+        assert np.isfinite(grid[column]).all(), column
+    np.testing.assert_allclose(grid.sort_values("case_id")["ceq_cell_liggghts_ns_m"],
+                               table.sort_values("case_id")["ceq_cell_ns_m"], rtol=1e-12)
+    both = grid[grid["both_ok"]]
+    assert len(both) >= 5 and both["agree"].mean() >= 0.75, grid[["case_id", "z_combined"]]
+    assert grid["dem_cpu_time_s"].sum() < grid["liggghts_cpu_time_s"].sum()
+    assert (campaign_dir / "results" / "validation" / "grid.png").stat().st_size > 10_000
+    record = json.loads(next((campaign_dir / "results" / "validation" / "dem").glob("*.json"))
+                        .read_text())
+    assert record["solver"] == "numba-dem"
+
+
 def test_report_collects_figures_and_tables(campaign_dir):
     run = snakemake(campaign_dir, "--report", "report.html")
     assert run.returncode == 0, run.stdout[-3000:]

@@ -110,6 +110,11 @@ def get_final_targets():
     return targets
 
 
+def get_dem_check_records():
+    """The compiled DEM's record of every case of the campaign (`snakemake validate`)."""
+    return [f"results/validation/dem/{case_id}.json" for case_id in get_case_ids()]
+
+
 def get_validation_cases():
     """The cases of `snakemake validate` (validation.cases)."""
     return config["validation"]["cases"]

@@ -1,4 +1,4 @@
-"""Rule simulate_case: shake one case in LIGGGHTS (pidpipe.steps.cases.simulate_case)."""
+"""Rule simulate_case: shake one case with the configured engine (pidpipe.steps.cases.simulate_case)."""
 
 from pidpipe.steps.cases import simulate_case
 from pidpipe.steps.run import run_step
