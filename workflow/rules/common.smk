@@ -3,6 +3,7 @@
 import sys
 
 from pidpipe import campaign
+from pidpipe import cluster_resources
 from pidpipe import fidelity_study
 from pidpipe.errors import ConfigError
 
@@ -51,6 +52,12 @@ def get_cells_per_run():
 def get_case_id(wildcards):
     """The case id of a simulate_case job."""
     return CASE_PATTERN.format(**wildcards)
+
+
+def get_case_runtime_min(wildcards, attempt):
+    """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.cluster_resources)."""
+    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
+    return cluster_resources.case_runtime_min(config, case, attempt)
 
 
 def get_packing_config():
