@@ -8,6 +8,7 @@ from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_pa
                                   environment_params)
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
+from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
 
@@ -56,6 +57,13 @@ def get_cells_per_run():
 def get_case_id(wildcards):
     """The case id of a simulate_case job."""
     return CASE_PATTERN.format(**wildcards)
+
+
+def get_case_runtime_min(wildcards, attempt):
+    """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.steps.resources)."""
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    return cluster_resources.case_runtime_min(settings, case, attempt)
 
 
 def get_packing_config():

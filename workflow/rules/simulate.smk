@@ -17,6 +17,8 @@ rule simulate_case:
     benchmark:
         "results/benchmarks/simulate_case/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.tsv"
     threads: 1
+    resources:
+        runtime=get_case_runtime_min,
     script:
         "../scripts/simulate_case.py"
 
