@@ -7,6 +7,8 @@ spheres per fill, the sphere budget).
 
 from pidpipe.config.derived import (
                                     budget_spheres,
+                                    panel_mass_kg,
+                                    panel_n_cells,
                                     coupon_mass_kg,
                                     full_cell_spheres,
                                     pair_properties,
@@ -25,6 +27,6 @@ from pidpipe.config.schema import (
 
 __all__ = [
     "DEFAULT_CONFIG_PATH", "REPO_ROOT", "SCHEMA_PATH", "budget_spheres", "coupon_mass_kg",
-    "full_cell_spheres", "load_config", "load_schema", "pair_properties", "particle_properties",
+    "full_cell_spheres", "load_config", "panel_mass_kg", "panel_n_cells", "load_schema", "pair_properties", "particle_properties",
     "spheres_for_fill", "validate_config", "wall_properties",
 ]

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
-from pidpipe.config import budget_spheres, full_cell_spheres, validate_config
+from pidpipe.config import budget_spheres, full_cell_spheres, panel_n_cells, validate_config
 from pidpipe.config.stages import sorted_keys
 from pidpipe.errors import ConfigError
 
@@ -57,9 +57,10 @@ def campaign_packing_ids(config: dict) -> list[str]:
 
 
 def budget_params(config: dict) -> dict:
-    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N."""
+    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
     return {"n_spheres": budget_spheres(config), "full_cell_spheres": full_cell_spheres(config),
-            "n_cells_coupon": int(config["geometry"]["coupon_n_cells"])}
+            "n_cells_coupon": int(config["geometry"]["coupon_n_cells"]),
+            "n_cells_panel": panel_n_cells(config)}
 
 
 def environment_params(config: dict) -> list[dict]:
