@@ -120,7 +120,8 @@ def winner(result: OptimisationResult, optimum) -> int:
 
 
 def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], budget: Budget,
-                      search: Search, settings: Bootstrap) -> pd.DataFrame:
+                      search: Search, settings: Bootstrap,
+                      loo: float = float("nan")) -> pd.DataFrame:
     """Re-optimise every design on every draw; store the intervals in each result.
 
     Parameters
@@ -133,6 +134,9 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
     search : Search
         The main run's search (band rule, clipping, tolerances).
     settings : Bootstrap
+    loo : float
+        The surrogate's leave-one-out relative error (:func:`loo_rel_error`), reported with the
+        intervals; NaN if not computed.
 
     Returns
     -------
@@ -149,9 +153,9 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
         for res in results:
             rows.append(_one_draw(model, res, budget, search, settings, draw))
     draws = pd.DataFrame(rows, columns=["draw", "environment", "design", "ok", "fill_pct", "n_cells",
-                                        "total_ceq_ns_m", "band_mean_total_ceq_ns_m",
+                                        "total_ceq_ns_m", "continuous_fill_pct",
+                                        "band_mean_total_ceq_ns_m",
                                         "band_worst_total_ceq_ns_m", "local_optimum"])
-    loo = loo_rel_error(surrogate)
     for res in results:
         mine = draws[(draws["environment"] == res.environment.name) & (draws["design"] == res.kind)]
         res.uncertainty = summarise(res, mine, settings, loo)
@@ -168,10 +172,12 @@ def _one_draw(model: Surrogate, res: OptimisationResult, budget: Budget, search:
                                 starts=settings.starts)
     except PidpipeError:
         return {**row, "ok": False, "fill_pct": np.nan, "n_cells": np.nan, "total_ceq_ns_m": np.nan,
+                "continuous_fill_pct": np.nan,
                 "band_mean_total_ceq_ns_m": np.nan, "band_worst_total_ceq_ns_m": np.nan,
                 "local_optimum": -1}
     return {**row, "ok": True, "fill_pct": again.design.fill_pct, "n_cells": again.design.n_cells,
             "total_ceq_ns_m": again.design.total_ceq_ns_m,
+            "continuous_fill_pct": again.optimum.fill_pct,
             "band_mean_total_ceq_ns_m": again.band.mean_total_ceq_ns_m,
             "band_worst_total_ceq_ns_m": again.band.worst_total_ceq_ns_m,
             "local_optimum": winner(res, again.optimum)}

@@ -286,6 +286,7 @@ class _Problem:
 
     variables = VARIABLES
     cluster_slice = slice(0, 3)  # f, r, G
+    ftol = 1e-10  # SLSQP's tolerance on the scaled objective
 
     def __init__(self, model: CeqModel, bounds: dict[str, tuple[float, float]], budget: Budget):
         self.model, self.budget = model, budget
@@ -361,8 +362,8 @@ def _run_start(problem, index: int, x0: np.ndarray, maxiter: int) -> StartRun:
     """One SLSQP run from x0, recording the objective (N*s/m) at each iteration.
 
     ``problem`` is a :class:`_Problem` or another problem with the same interface
-    (``to_x``, ``to_z``, ``fixed``, ``objective``, ``constraints``, ``named``, ``total_ceq``,
-    ``budget_residual``, ``budget``), such as the band designs' of :mod:`pidpipe.design.band`.
+    (``to_x``, ``to_z``, ``fixed``, ``ftol``, ``objective``, ``constraints``, ``named``,
+    ``total_ceq``, ``budget_residual``, ``budget``), such as the band designs' of :mod:`pidpipe.design.band`.
     """
     history = [problem.total_ceq(x0)]
 
@@ -373,7 +374,7 @@ def _run_start(problem, index: int, x0: np.ndarray, maxiter: int) -> StartRun:
         problem.objective, problem.to_z(x0), method="SLSQP",
         bounds=[(0.0, 0.0) if fixed else (0.0, 1.0) for fixed in problem.fixed],
         constraints=problem.constraints(),
-        callback=record, options={"maxiter": maxiter, "ftol": 1e-10},
+        callback=record, options={"maxiter": maxiter, "ftol": problem.ftol},
     )
     x = problem.to_x(result.x)
     residual = problem.budget_residual(x)
