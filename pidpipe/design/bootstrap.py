@@ -32,6 +32,11 @@ from pidpipe.design.optimisation import Budget, OptimisationResult
 from pidpipe.design.surrogate import Surrogate, cross_validate, refit_values
 from pidpipe.errors import ConfigError, PidpipeError, TableError
 
+#: Columns of the draws' table (:func:`bootstrap_designs`).
+DRAW_COLUMNS: tuple[str, ...] = ("draw", "environment", "design", "ok", "fill_pct", "n_cells",
+                                 "total_ceq_ns_m", "continuous_fill_pct", "band_mean_total_ceq_ns_m",
+                                 "band_worst_total_ceq_ns_m", "local_optimum")
+
 #: A draw's optimum farther than this (scaled variables) from every main local optimum is "elsewhere".
 WIN_TOLERANCE = 0.1
 
@@ -142,7 +147,8 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
     -------
     pandas.DataFrame
         One row per (draw, environment, design): ``fill_pct``, ``n_cells``, ``total_ceq_ns_m``
-        (the design's objective), ``band_mean_total_ceq_ns_m``, ``band_worst_total_ceq_ns_m``,
+        (the design's objective) of the whole-cell design, ``continuous_fill_pct`` of the
+        continuous optimum, ``band_mean_total_ceq_ns_m``, ``band_worst_total_ceq_ns_m``,
         ``local_optimum`` (index into the main result's local optima, -1 elsewhere) and
         ``ok`` (False where the draw's optimisation failed; its values are NaN).
     """
@@ -152,10 +158,7 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
         model = refit_values(surrogate, draw_values)
         for res in results:
             rows.append(_one_draw(model, res, budget, search, settings, draw))
-    draws = pd.DataFrame(rows, columns=["draw", "environment", "design", "ok", "fill_pct", "n_cells",
-                                        "total_ceq_ns_m", "continuous_fill_pct",
-                                        "band_mean_total_ceq_ns_m",
-                                        "band_worst_total_ceq_ns_m", "local_optimum"])
+    draws = pd.DataFrame(rows, columns=list(DRAW_COLUMNS))
     for res in results:
         mine = draws[(draws["environment"] == res.environment.name) & (draws["design"] == res.kind)]
         res.uncertainty = summarise(res, mine, settings, loo)

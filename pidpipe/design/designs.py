@@ -188,15 +188,15 @@ def format_designs(results: list[OptimisationResult]) -> str:
         first = rows.iloc[0]
         lines.append(f"{env}  (f {first['freq_band_hz']} Hz, G {first['accel_band_g']} g; "
                      f"{first['n_budget_spheres']} spheres, at most {first['n_cells_panel']} cells)")
-        lines.append(f"  {'design':<11}{'r %':>16}{'n_c':>16}{'objective':>24}"
-                     f"{'band mean':>11}{'worst':>9}{'best':>9}  N*s/m")
+        lines.append(f"  {'design':<11}{'r %':>20}{'n_c':>18}{'objective':>28}"
+                     f"{'band mean':>11}{'worst':>10}{'best':>10}  N*s/m")
         for _, row in rows.iterrows():
-            lines.append(f"  {row['design']:<11}{_with_interval(row, 'fill_pct', '.1f'):>16}"
-                         f"{_with_interval(row, 'n_cells', '.0f'):>16}"
-                         f"{_with_interval(row, 'total_ceq_ns_m', '.4g'):>24}"
+            lines.append(f"  {row['design']:<11}{_with_interval(row, 'fill_pct', '.1f'):>20}"
+                         f"{_with_interval(row, 'n_cells', '.0f'):>18}"
+                         f"{_with_interval(row, 'total_ceq_ns_m', '.4g'):>28}"
                          f"{row['band_mean_total_ceq_ns_m']:>11.4g}"
-                         f"{row['band_worst_total_ceq_ns_m']:>9.4g}"
-                         f"{row['band_best_total_ceq_ns_m']:>9.4g}"
+                         f"{row['band_worst_total_ceq_ns_m']:>10.4g}"
+                         f"{row['band_best_total_ceq_ns_m']:>10.4g}"
                          + (f"  at {row['freq_hz']:g} Hz, {row['accel_g']:g} g"
                             if row["design"] == "peak" else ""))
         if first["regime_warning"]:
