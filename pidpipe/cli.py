@@ -134,6 +134,7 @@ def check_config_command(args: argparse.Namespace) -> int:
         budget_spheres,
         full_cell_spheres,
         load_config,
+        panel_n_cells,
         spheres_for_fill,
     )
 
@@ -145,7 +146,8 @@ def check_config_command(args: argparse.Namespace) -> int:
     print("  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
                                               for r in grid["fill_pct"])
           + f" (full cell = {full_cell_spheres(config)}, fill.definition = {config['fill']['definition']})")
-    print(f"  particle budget: {budget_spheres(config)} spheres; environments: "
+    print(f"  particle budget: {budget_spheres(config)} spheres for a panel of {panel_n_cells(config)} "
+          f"cells; environments: "
           + "; ".join(env["name"] for env in config["environments"]))
     return 0
 

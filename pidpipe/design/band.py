@@ -33,14 +33,13 @@ from pidpipe.design.optimisation import (
     CeqModel,
     Environment,
     OptimisationResult,
-    _run_start,
-    cluster_optima,
     environment_bounds,
     feasible_fill_range,
     make_design,
+    run_starts,
     whole_cell_candidates,
 )
-from pidpipe.errors import ConfigError, PidpipeError
+from pidpipe.errors import ConfigError
 
 #: The band designs this module solves.
 BAND_KINDS: tuple[str, ...] = ("band_mean", "worst_case")
@@ -277,12 +276,8 @@ def optimise_band_design(model: CeqModel, environment: Environment, budget: Budg
     x0s = [problem.start(r) for r in fills]
     problem.set_scale(max(max(abs(problem.total_ceq(x0)) for x0 in x0s), 1e-300))
     x0s = [problem.start(r) for r in fills]  # t within its new bounds
-    runs = [_run_start(problem, i, x0, maxiter) for i, x0 in enumerate(x0s)]
-    optima = cluster_optima(runs, problem, cluster_tol)
-    if not optima:
-        messages = sorted({run.message for run in runs})
-        raise PidpipeError(f"environment {environment.name!r}, design {kind}: SLSQP converged to a "
-                           f"feasible point from none of {len(x0s)} starts ({'; '.join(messages)})")
+    runs, optima = run_starts(problem, x0s, maxiter, cluster_tol,
+                              f"environment {environment.name!r}, design {kind}")
     return OptimisationResult(
         environment=environment, budget=budget, bounds=bounds, clipped=clipped, seed=seed,
         optimum=optima[0], local_optima=optima, design=_whole_cell_band_design(problem, optima[0]),

@@ -205,6 +205,9 @@ def format_designs(results: list[OptimisationResult]) -> str:
             lines.append(f"  [lo, hi]: {100 * first['bootstrap_confidence']:g} % bootstrap interval of "
                          f"{first['bootstrap_used']} draws; surrogate leave-one-out error "
                          f"{100 * first['surrogate_loo_rel_error']:.1f} % RMS (not in the intervals)")
+            for _, row in rows.iterrows():
+                lines.append(f"  {row['design']} local optima, share of the draws they win: "
+                             f"{row['optimum_wins']}")
     return "\n".join(lines)
 
 

@@ -137,11 +137,12 @@ class StartRun:
 
 @dataclass
 class LocalOptimum:
-    """A cluster of converged end points; values are those of its best member."""
+    """A cluster of converged end points; values are those of its best member (f and G are
+    None for the band designs, which have no single point)."""
 
-    freq_hz: float
+    freq_hz: float | None
     fill_pct: float
-    accel_g: float
+    accel_g: float | None
     n_cells: float
     total_ceq_ns_m: float
     n_starts: int
@@ -155,7 +156,9 @@ class Design:
     ``spheres_per_cell`` = n_b / n_cells is what the budget implies (not a whole number in
     general); ``fill_pct`` is the fill it corresponds to, at which ``total_ceq_ns_m`` is
     evaluated. ``whole_spheres_per_cell`` = floor of it; ``spheres_left_over`` = n_b -
-    whole * n_cells can go one each into that many cells.
+    whole * n_cells can go one each into that many cells. ``freq_hz`` and ``accel_g`` are the
+    peak design's point, None for the band designs (whose ``total_ceq_ns_m`` is the band mean
+    or the band minimum).
     """
 
     n_cells: int
@@ -163,8 +166,8 @@ class Design:
     whole_spheres_per_cell: int
     spheres_left_over: int
     fill_pct: float
-    freq_hz: float
-    accel_g: float
+    freq_hz: float | None
+    accel_g: float | None
     ceq_per_cell_ns_m: float
     total_ceq_ns_m: float
     budget_residual_spheres: float
@@ -417,6 +420,24 @@ def cluster_optima(runs: list[StartRun], problem, tol: float) -> list[LocalOptim
     return optima
 
 
+def run_starts(problem, x0s, maxiter: int, cluster_tol: float,
+               what: str) -> tuple[list[StartRun], list[LocalOptimum]]:
+    """SLSQP from every starting point, then the local optima (best first).
+
+    Raises
+    ------
+    PidpipeError
+        No start converged to a feasible point (``what`` names the problem).
+    """
+    runs = [_run_start(problem, i, x0, maxiter) for i, x0 in enumerate(x0s)]
+    optima = cluster_optima(runs, problem, cluster_tol)
+    if not optima:
+        messages = sorted({run.message for run in runs})
+        raise PidpipeError(f"{what}: SLSQP converged to a feasible point from none of {len(runs)} "
+                           f"starts ({'; '.join(messages)})")
+    return runs, optima
+
+
 def whole_cell_candidates(budget: Budget, n_cells: float,
                           fill_bounds: tuple[float, float]) -> list[tuple[int, float, float]]:
     """The whole numbers of cells next to a continuous n_c that spend the budget in the bounds.
@@ -534,12 +555,7 @@ def optimise_environment(model: CeqModel, environment: Environment, budget: Budg
     x0s = np.vstack([given, starting_points(bounds, budget, starts, seed)])
     initial = [problem.total_ceq(x0) for x0 in x0s]
     problem.scale = max(max(abs(v) for v in initial), 1e-300)
-    runs = [_run_start(problem, i, x0, maxiter) for i, x0 in enumerate(x0s)]
-    optima = cluster_optima(runs, problem, cluster_tol)
-    if not optima:
-        messages = sorted({run.message for run in runs})
-        raise PidpipeError(f"environment {environment.name!r}: SLSQP converged to a feasible point "
-                           f"from none of {starts} starts ({'; '.join(messages)})")
+    runs, optima = run_starts(problem, x0s, maxiter, cluster_tol, f"environment {environment.name!r}")
     return OptimisationResult(
         environment=environment, budget=budget, bounds=bounds, clipped=clipped, seed=seed,
         optimum=optima[0], local_optima=optima, design=whole_cell_design(problem, optima[0]),

@@ -138,13 +138,7 @@ def relative_spread(surrogate: Surrogate, draws: list[Surrogate], freq_hz: np.nd
 def _draw_spread(ax, surrogate: Surrogate, fixed: str, level: float, axes_vars: tuple[str, str],
                  slice_map, draws: list[Surrogate] | None, note: str):
     """The uncertainty panel under one map; return its contour set (None if not drawn)."""
-    ax.set_xscale("log")
-    ax.set_xlabel(AXIS_LABELS[axes_vars[0]])
-    x_lo, x_hi = surrogate.domain[axes_vars[0]]
-    y_lo, y_hi = surrogate.domain[axes_vars[1]]
-    ax.set_xlim(x_lo, x_hi)
-    ax.set_ylim(y_lo, y_hi)
-    frequency_ticks(ax, x_lo, x_hi)
+    _frame(ax, surrogate, axes_vars)
     unit = UNITS[fixed]
     if slice_map is None or not draws or len(draws) < 2:
         why = "outside the surrogate domain" if slice_map is None else (note or "no bootstrap draws")
@@ -189,10 +183,8 @@ def _figure_legend(fig: Figure, axes) -> None:
                    ncols=len(handles), frameon=False)
 
 
-def _draw_panel(ax, surrogate: Surrogate, fixed: str, level: float, axes_vars: tuple[str, str],
-                slice_map, norm):
-    """Draw one map (or the out-of-domain notice) and the DEM points; return the contour set."""
-    unit = UNITS[fixed]
+def _frame(ax, surrogate: Surrogate, axes_vars: tuple[str, str]) -> None:
+    """Log frequency axis, labels and limits: the surrogate's domain."""
     ax.set_xscale("log")
     ax.set_xlabel(AXIS_LABELS[axes_vars[0]])
     x_lo, x_hi = surrogate.domain[axes_vars[0]]
@@ -200,6 +192,13 @@ def _draw_panel(ax, surrogate: Surrogate, fixed: str, level: float, axes_vars: t
     ax.set_xlim(x_lo, x_hi)
     ax.set_ylim(y_lo, y_hi)
     frequency_ticks(ax, x_lo, x_hi)
+
+
+def _draw_panel(ax, surrogate: Surrogate, fixed: str, level: float, axes_vars: tuple[str, str],
+                slice_map, norm):
+    """Draw one map (or the out-of-domain notice) and the DEM points; return the contour set."""
+    unit = UNITS[fixed]
+    _frame(ax, surrogate, axes_vars)
     if slice_map is None:
         lo, hi = surrogate.domain[fixed]
         ax.set_title(f"{SYMBOLS[fixed]} = {level:g} {unit}: outside the surrogate domain\n"
