@@ -4,6 +4,8 @@
 prints C_eq with its standard error and the fidelity that produced it (``--engine dem`` shakes
 it in the compiled in-repo DEM instead of LIGGGHTS, on the same LIGGGHTS pour); ``--record`` writes the
 full machine-readable record. ``pidpipe check-config`` validates a config and prints the grid.
+``pidpipe optimise [--table FILE]`` runs the optimisation stage alone on the campaign's C_eq
+table or any table with the four required columns, and prints the designs.
 User errors print one line and exit 2, never a traceback.
 """
 
@@ -37,6 +39,21 @@ def _parser() -> argparse.ArgumentParser:
                       help="solver that shakes the case (default: the config's engine)")
 
     commands.add_parser("check-config", help="validate the config and print the campaign")
+
+    optimise = commands.add_parser(
+        "optimise", help="optimise the designs on a C_eq table and print them",
+        description="Fit the configured surrogate to a C_eq table (columns freq_hz, accel_g, "
+                    "fill_pct, ceq_coupon_ns_m; ceq_coupon_sem_ns_m for intervals) and print the "
+                    "peak, band_mean and worst_case design of every environment of the config.")
+    optimise.add_argument("--table", type=Path,
+                          help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
+                               "results/ceq_table.csv")
+    optimise.add_argument("--config", type=Path, default=argparse.SUPPRESS,
+                          help="config file (default: config.yaml)")
+    optimise.add_argument("--draws", type=int,
+                          help="bootstrap draws (default: optimisation.bootstrap.draws; 0: none)")
+    optimise.add_argument("--output", type=Path,
+                          help="also write the designs as CSV here (and <stem>.json, the full results)")
     return parser
 
 
@@ -125,6 +142,7 @@ def check_config_command(args: argparse.Namespace) -> int:
         budget_spheres,
         full_cell_spheres,
         load_config,
+        panel_n_cells,
         spheres_for_fill,
     )
 
@@ -136,14 +154,63 @@ def check_config_command(args: argparse.Namespace) -> int:
     print("  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
                                               for r in grid["fill_pct"])
           + f" (full cell = {full_cell_spheres(config)}, fill.definition = {config['fill']['definition']})")
-    print(f"  particle budget: {budget_spheres(config)} spheres; environments: "
+    print(f"  particle budget: {budget_spheres(config)} spheres for a panel of {panel_n_cells(config)} "
+          f"cells; environments: "
           + "; ".join(env["name"] for env in config["environments"]))
+    return 0
+
+
+def optimise_command(args: argparse.Namespace) -> int:
+    """Fit the surrogate to a C_eq table, optimise every design, print them."""
+    from pidpipe.config import load_config
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.designs import (
+        format_designs,
+        write_results_csv,
+        write_results_json,
+    )
+    from pidpipe.design.optimisation import Budget
+    from pidpipe.design.optimum import optimise_panel
+    from pidpipe.design.surrogate import fit_surrogate
+    from pidpipe.files import write_atomic
+    from pidpipe.steps.design import (
+        bootstrap_settings,
+        environment_objects,
+        search_settings,
+    )
+    from pidpipe.steps.params import budget_params
+
+    config = load_config(args.config)
+    if not config["environments"]:
+        raise PidpipeError(f"{args.config}: no environments to optimise for (config key environments)")
+    table_path = args.table or Path(config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv")
+    table = read_ceq_table(table_path)
+    surrogate = fit_surrogate(table, method=config["surrogate"]["method"], source=str(table_path),
+                              allow_holes=config["surrogate"]["allow_holes"])
+    bootstrap = dict(config["optimisation"]["bootstrap"])
+    if args.draws is not None:
+        if args.draws < 0:
+            raise PidpipeError(f"--draws {args.draws} is not allowed: it must be >= 0")
+        bootstrap["draws"] = args.draws
+    print(f"pidpipe: {surrogate.describe()}; {bootstrap['draws']} bootstrap draws ...",
+          file=sys.stderr, flush=True)
+    optimum = optimise_panel(surrogate, environment_objects(config["environments"]),
+                             Budget(**budget_params(config)), search_settings(config["optimisation"]),
+                             bootstrap_settings(bootstrap))
+    print(format_designs(optimum.results))
+    if optimum.note:
+        print(f"note: {optimum.note}")
+    if args.output:
+        write_atomic(args.output, lambda tmp: write_results_csv(optimum.results, tmp))
+        write_atomic(args.output.with_suffix(".json"),
+                     lambda tmp: write_results_json(optimum.results, tmp))
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handlers = {"case": run_case_command, "check-config": check_config_command}
+    handlers = {"case": run_case_command, "check-config": check_config_command,
+                "optimise": optimise_command}
     try:
         return handlers[args.command](args)
     except PidpipeError as exc:

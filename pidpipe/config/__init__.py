@@ -12,6 +12,8 @@ from pidpipe.config.derived import (
                                     coupon_mass_kg,
                                     full_cell_spheres,
                                     pair_properties,
+                                    panel_mass_kg,
+                                    panel_n_cells,
                                     particle_properties,
                                     spheres_for_fill,
                                     wall_properties,
@@ -27,6 +29,6 @@ from pidpipe.config.schema import (
 
 __all__ = [
     "DEFAULT_CONFIG_PATH", "REPO_ROOT", "SCHEMA_PATH", "budget_spheres", "coupon_mass_kg",
-    "full_cell_spheres", "load_config", "load_schema", "pair_properties", "particle_properties",
+    "full_cell_spheres", "load_config", "panel_mass_kg", "panel_n_cells", "load_schema", "pair_properties", "particle_properties",
     "spheres_for_fill", "validate_config", "wall_properties",
 ]

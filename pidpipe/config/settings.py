@@ -22,6 +22,7 @@ from pidpipe.config.derived import (
     budget_spheres,
     full_cell_spheres,
     pair_properties,
+    panel_n_cells,
     spheres_at_fill,
 )
 from pidpipe.errors import ConfigError
@@ -226,21 +227,24 @@ class Budget:
         Spheres in a full cell (so a cell at fill r holds full_cell_spheres * r / 100).
     n_cells_coupon : int
         Cells of the coupon whose C_eq the surrogate gives, N.
+    n_cells_panel : int
+        Cells of the structure that may be filled (``panel.n_cells``; the coupon's N if null).
     """
 
     n_spheres: int
     full_cell_spheres: int
     n_cells_coupon: int
+    n_cells_panel: int
 
     @classmethod
     def from_config(cls, config: dict) -> "Budget":
         return cls(budget_spheres(config), full_cell_spheres(config),
-                   int(config["geometry"]["coupon_n_cells"]))
+                   int(config["geometry"]["coupon_n_cells"]), panel_n_cells(config))
 
     def as_params(self) -> dict:
         """The plain dict a rule's ``params`` carries."""
         return {"n_spheres": self.n_spheres, "full_cell_spheres": self.full_cell_spheres,
-                "n_cells_coupon": self.n_cells_coupon}
+                "n_cells_coupon": self.n_cells_coupon, "n_cells_panel": self.n_cells_panel}
 
 
 @dataclass(frozen=True)

@@ -57,10 +57,27 @@ def campaign_packing_ids(config: dict) -> list[str]:
 
 
 def budget_params(config: dict) -> dict:
-    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N."""
+    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
     return Budget.from_config(config).as_params()
 
 
 def environment_params(config: dict) -> list[dict]:
     """The operating environments as plain, key-sorted dicts."""
     return sorted_keys(config["environments"])
+
+
+def optimisation_params(config: dict) -> dict:
+    """The optimisation section without ``external_ceq_table`` (the table is the rule's input)."""
+    return sorted_keys({k: v for k, v in config["optimisation"].items() if k != "external_ceq_table"})
+
+
+#: The maps' uncertainty panels use at most this many of the bootstrap's draws (a standard
+#: deviation from 50 draws is good to about 10 % of itself; each draw costs a refit and a map).
+MAP_DRAWS = 50
+
+
+def map_uncertainty_params(config: dict) -> dict:
+    """Draws and seed of the maps' bootstrap spread: the first (at most :data:`MAP_DRAWS`) of
+    the optimum's draws, which the same seed redraws identically."""
+    bootstrap = config["optimisation"]["bootstrap"]
+    return {"draws": min(int(bootstrap["draws"]), MAP_DRAWS), "seed": int(bootstrap["seed"])}

@@ -39,7 +39,7 @@ from tests._snakemake import (
     WORKFLOW_MARKS,
     snakemake_command,
 )
-from tests.test_interruption import (
+from tests.workflow.test_interruption import (
     _case_jobs,
     _finished_cases,
     _running_liggghts,

@@ -62,7 +62,7 @@ def test_fill_and_budget_agree_with_the_config_functions():
     assert [fill.spheres(r) for r in (25, 50, 75, 90)] == [spheres_for_fill(config, r)
                                                            for r in (25, 50, 75, 90)] == [5, 11, 16, 19]
     assert Budget.from_config(config).as_params() == {"n_spheres": 229, "full_cell_spheres": 21,
-                                                      "n_cells_coupon": 441}
+                                                      "n_cells_coupon": 441, "n_cells_panel": 441}
 
 
 def test_the_transient_lasts_the_configured_cycles_or_the_minimum_time():

@@ -411,22 +411,20 @@ class _Plane:
 
 
 def test_results_json_reads_back_and_plots(tmp_path):
-    from pidpipe.design.optimisation import (
-        Budget,
-        Environment,
-        optimise_environments,
-        write_results_json,
-    )
+    from pidpipe.design.designs import Search, optimise_designs, write_results_json
+    from pidpipe.design.optimisation import Budget, Environment
 
-    results = optimise_environments(_Plane(), [Environment("e", (200.0, 300.0), (2.0, 3.0))],
-                                    Budget(n_spheres=1000, full_cell_spheres=21, n_cells_coupon=441),
-                                    starts=3, seed=1)
+    results = optimise_designs(_Plane(), [Environment("e", (200.0, 300.0), (2.0, 3.0))],
+                               Budget(n_spheres=1000, full_cell_spheres=21, n_cells_coupon=441),
+                               Search(starts=3, seed=1))
     path = tmp_path / "optimum.json"
     write_results_json(results, path)
     back = read_results_json(path)
-    assert back[0].design == results[0].design
-    assert back[0].optimum == results[0].optimum
-    assert [s.history_ns_m for s in back[0].starts] == [s.history_ns_m for s in results[0].starts]
+    assert [r.kind for r in back] == ["peak", "band_mean", "worst_case"]
+    for again, result in zip(back, results):
+        assert again.design == result.design and again.band == result.band
+        assert again.optimum == result.optimum
+        assert [s.history_ns_m for s in again.starts] == [s.history_ns_m for s in result.starts]
     plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
     assert (tmp_path / "convergence.png").stat().st_size > 1000
     assert (tmp_path / "convergence.pdf").stat().st_size > 1000

@@ -5,7 +5,8 @@ import sys
 from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
-                                  environment_params)
+                                  environment_params, map_uncertainty_params,
+                                  optimisation_params)
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
@@ -97,8 +98,14 @@ def get_budget():
     return budget_params(config)
 
 
-def get_optimisation_option(key):
-    return config["optimisation"][key]
+def get_optimisation_params():
+    """What the designs depend on: config optimisation without the table's path (an input)."""
+    return optimisation_params(config)
+
+
+def get_map_uncertainty_params():
+    """The bootstrap draws and seed of the maps' uncertainty panels."""
+    return map_uncertainty_params(config)
 
 
 def get_final_targets():
@@ -112,6 +119,7 @@ def get_final_targets():
         "results/figures/ceq_freq_fill.png",
         "results/figures/ceq_freq_accel.png",
         "results/figures/convergence.png",
+        "results/figures/optimum_spread.png",
     ]
     if config["optimisation"]["external_ceq_table"] is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets
