@@ -21,8 +21,8 @@ frequency and spheres), plus ``pour_cpu_s`` per new packing; a run holds at most
 ``cells_per_run`` cells, more are split into several runs. For each total cell count K' the
 fewest cycles N' that reach the target are the cheapest, so :func:`plan_next_step` scans K'
 and takes the cheapest step within the caps; when no step reaches the target within them it
-takes the step with the smallest predicted SEM that the caps allow, if it cuts the SEM by at
-least 10 % (:data:`WORTHWHILE`; the case then ends with ``target_not_reached``). Everything here is pure: numbers in, a :class:`Step` out.
+takes the cheapest step whose predicted SEM is within 2 % of the smallest that the caps
+allow (:data:`NEAR_BEST`), if it cuts the SEM by at least 10 % (:data:`WORTHWHILE`; the case then ends with ``target_not_reached``). Everything here is pure: numbers in, a :class:`Step` out.
 """
 
 from __future__ import annotations
@@ -37,6 +37,10 @@ PLAN_MARGIN = 1.2
 WORTHWHILE = 0.9
 """A step that cannot reach the target is taken only if it brings the SEM below this fraction
 of the present one (no CPU spent on a negligible gain)."""
+
+NEAR_BEST = 1.02
+"""Of the steps that cannot reach the target, the cheapest whose predicted SEM is within 2 % of
+the smallest is taken (cycles that buy nothing against a packing spread are not run)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -177,27 +181,28 @@ def plan_next_step(components: Components, cells: int, cycles: int, spent_cpu_s:
     affordable = []
     for total in range(cells, limits.max_cells + 1):
         wanted = components.cycles_for(total, plan_sem)
-        if wanted <= cycles:
-            new_cycles = cycles
-        elif wanted <= limits.max_cycles:
-            new_cycles = math.ceil(wanted)
-        else:
-            new_cycles = limits.max_cycles
-        if total == cells and new_cycles == cycles:
-            continue
-        step = step_to(cells, cycles, total - cells, new_cycles, components, target_sem,
-                       run_cpu_s, pour_cpu_s, limits.cells_per_run)
-        if step.cpu_s > budget:
-            step = largest_affordable(cells, cycles, total - cells, new_cycles, budget, components,
-                                      target_sem, run_cpu_s, pour_cpu_s, limits.cells_per_run)
-        if step is not None:
-            affordable.append(step)
+        options = {cycles, min(limits.max_cycles, max(cycles, math.ceil(min(wanted, 1e12))))}
+        for new_cycles in sorted(options):
+            if total == cells and new_cycles == cycles:
+                continue
+            step = step_to(cells, cycles, total - cells, new_cycles, components, target_sem,
+                           run_cpu_s, pour_cpu_s, limits.cells_per_run)
+            if step.cpu_s > budget:
+                step = largest_affordable(cells, cycles, total - cells, new_cycles, budget,
+                                          components, target_sem, run_cpu_s, pour_cpu_s,
+                                          limits.cells_per_run)
+            if step is not None:
+                affordable.append(step)
     reaching = [step for step in affordable if step.predicted_sem <= plan_sem * (1 + 1e-12)]
     if reaching:
         return min(reaching, key=lambda step: (step.cpu_s, step.predicted_sem))
     now = components.sem(cells, cycles)
     better = [step for step in affordable if step.predicted_sem <= WORTHWHILE * now]
-    return min(better, key=lambda step: (step.predicted_sem, step.cpu_s)) if better else None
+    if not better:
+        return None
+    best = min(step.predicted_sem for step in better)
+    return min((step for step in better if step.predicted_sem <= NEAR_BEST * best),
+               key=lambda step: (step.cpu_s, step.predicted_sem))
 
 
 def largest_affordable(cells: int, cycles: int, new_cells: int, max_new_cycles: int,
