@@ -8,7 +8,7 @@ many were not chased: C_eq not resolved from zero), the cells and cycles they en
 the pours (the grid's and those poured on demand into the shared pool).
 
 Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
-         [--set fidelity.target_relative_sem=0.1 --set grid.freq_hz=[500,1000] ...]
+         [--set fidelity.target_relative_sem=0.1 --set grid.freq_hz=[500,1000] ...] [--keep DIR]
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ def main() -> None:
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
                         help="override one config value (repeatable)")
+    parser.add_argument("--keep", metavar="DIR", help="copy the case records here")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         work = Path(scratch)
@@ -64,6 +65,8 @@ def main() -> None:
         jobs = pd.DataFrame(rows)
         records = [json.loads(p.read_text()) for p in (work / "results" / "cases").glob("*.json")]
         pool = len(list((work / "results" / "packings" / "pool").glob("*.json")))
+        if args.keep:
+            shutil.copytree(work / "results" / "cases", args.keep, dirs_exist_ok=True)
         cases = pd.DataFrame([case_row(r) for r in records])
     counted = cases[cases["status"] != "failed"]
     target = config.get("fidelity", {}).get("target_relative_sem", "schema default")

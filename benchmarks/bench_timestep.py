@@ -8,7 +8,8 @@ C_i(0.1) with the two-level estimate of :func:`pidpipe.measurement.cells.mean_of
 d_i's cycle SEM is the two runs' combined): the packings' own spread, which is the same at
 both timesteps, cancels, so a few cells resolve the timestep's error to about 1 %.
 
-Run: .venv/bin/python benchmarks/bench_timestep.py [cells] [measured cycles at 500 Hz] [packings folder]
+Run: .venv/bin/python benchmarks/bench_timestep.py [--cells 7] [--cycles-500 80] [--cycles-1000 40]
+         [--fractions 0.1 0.2 0.3 0.4] [--fill 25 90 ...] [--packings DIR]
 """
 
 from __future__ import annotations
@@ -36,31 +37,40 @@ CASES = ((1000.0, 10.0, 25.0), (1000.0, 10.0, 90.0), (500.0, 5.0, 25.0), (500.0,
 
 
 def main() -> None:
-    cells = int(sys.argv[1]) if len(sys.argv) > 1 else 7
-    cycles_500 = int(sys.argv[2]) if len(sys.argv) > 2 else 80
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--cells", type=int, default=7)
+    parser.add_argument("--cycles-500", type=int, default=80)
+    parser.add_argument("--cycles-1000", type=int, default=40)
+    parser.add_argument("--fractions", type=float, nargs="+", default=list(FRACTIONS))
+    parser.add_argument("--fill", type=float, nargs="+", default=None)
+    parser.add_argument("--packings", default=None)
+    args = parser.parse_args()
+    cells, cycles_500, fractions = args.cells, args.cycles_500, tuple(args.fractions)
+    cases = [c for c in CASES if args.fill is None or c[2] in args.fill]
     lines = ["| case | dt / t_R | C_eq per cell, N s/m | error vs 0.1 t_R | CPU s (k cells) |",
              "|---|---|---|---|---|"]
-    cpu_by_fraction = {fraction: 0.0 for fraction in FRACTIONS}
-    worst = {fraction: 0.0 for fraction in FRACTIONS[1:]}
+    cpu_by_fraction = {fraction: 0.0 for fraction in fractions}
+    worst = {fraction: 0.0 for fraction in fractions[1:]}
     with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(sys.argv[3]) if len(sys.argv) > 3 else Path(scratch) / "packings"
-        for freq, accel, fill in CASES:
+        folder = Path(args.packings) if args.packings else Path(scratch) / "packings"
+        for freq, accel, fill in cases:
             packings, _ = replicate_packings(load_config(), fill, cells, folder)
             case = CaseSpec(freq, accel, fill)
             records = {}
-            for fraction in FRACTIONS:
+            for fraction in fractions:
                 config = load_config()
                 config["fidelity"]["timestep_rayleigh_fraction"] = fraction
-                if freq < 1000.0:
-                    config["fidelity"]["measured_cycles"] = cycles_500
+                config["fidelity"]["measured_cycles"] = cycles_500 if freq < 1000.0 else args.cycles_1000
                 records[fraction] = run_case(config, case, packings,
                                              Path(scratch) / f"{case.case_id}_{fraction}")
                 cpu_by_fraction[fraction] += records[fraction]["engine"]["liggghts_cpu_time_s"]
-            reference = records[FRACTIONS[0]]
+            reference = records[fractions[0]]
             for fraction, record in records.items():
                 value, sem = record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"]
                 text = "reference"
-                if fraction != FRACTIONS[0]:
+                if fraction != fractions[0]:
                     diff = mean_of_cells(
                         np.array([a["ceq_cell_ns_m"] - b["ceq_cell_ns_m"]
                                   for a, b in zip(record["cells"], reference["cells"])]),
@@ -75,19 +85,19 @@ def main() -> None:
                              f"{value:.4g} +- {sem:.2g}{flags} | {text} | "
                              f"{record['engine']['liggghts_cpu_time_s']:.1f} |")
                 print(lines[-1], flush=True)
-        lines += ["", "| dt / t_R | sphere-wall e (0.70) | sphere-sphere e (0.70) | CPU x 0.2 t_R | worst abs(error) + SEM |",
+        lines += ["", f"| dt / t_R | sphere-wall e (0.70) | sphere-sphere e (0.70) | CPU x {fractions[0]} t_R | worst abs(error) + SEM |",
                   "|---|---|---|---|---|"]
-        for fraction in FRACTIONS:
+        for fraction in fractions:
             config = load_config()
             config["fidelity"]["timestep_rayleigh_fraction"] = fraction
             wall = wall_restitution(config, 0.5, Path(scratch) / "w")
             pair = pair_restitution(config, 0.5, Path(scratch) / "p")
             bound = f"{100 * worst[fraction]:.2f} %" if fraction in worst else "reference"
             lines.append(f"| {fraction} | {wall:.4f} | {pair:.4f} | "
-                         f"{cpu_by_fraction[fraction] / cpu_by_fraction[0.2]:.2f} | {bound} |")
+                         f"{cpu_by_fraction[fraction] / cpu_by_fraction[fractions[0]]:.2f} | {bound} |")
             print(lines[-1], flush=True)
     lines += ["", f"{cells} cells per case (replicate packings 0..{cells - 1}, the same at every dt); "
-              f"40 measured cycles at 1000 Hz, {cycles_500} at 500 Hz; other settings default. "
+              f"{args.cycles_1000} measured cycles at 1000 Hz, {cycles_500} at 500 Hz; other settings default. "
               "Error = mean cell at dt / mean cell at 0.1 t_R - 1, +- the two-level SEM of the "
               "cells' paired differences. Restitution at an impact speed of 0.5 m/s."]
     append("Timestep: C_eq at 0.2 / 0.3 / 0.4 t_R against 0.1 t_R on the same packings",
