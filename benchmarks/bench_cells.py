@@ -11,9 +11,10 @@ standard error covers run-to-run noise).
 
 Run: .venv/bin/python benchmarks/bench_cells.py [k] [freq_hz ...]   (default 7 cells, 100 500 1000 Hz)
 
-With ``--cost`` it measures instead what a run of k cells costs, for k = 1, 2, 4, 7, 14, 28
-(:data:`COST_CELLS`) at 50 % fill and 1000 and 500 Hz, and k = 1, 7 at 90 % fill and 1000 Hz,
-with the default fidelity, plus each pour's CPU time; fits the cost model of
+With ``--cost`` it measures instead what a run of k cells costs, for k = 1, 2, 4, 7, 14, 24
+(:data:`COST_CELLS`; a run holds at most 24 cells, :data:`pidpipe.cell.layout.MAX_CELLS`, so 28
+are two runs) at 50 % fill and 1000 and 500 Hz, k = 1, 7 at 90 % and k = 1, 7, 24 at 25 % fill
+and 1000 Hz (so that the costs per cell and per sphere are told apart), with the default fidelity, plus each pour's CPU time; fits the cost model of
 :mod:`pidpipe.measurement.cost_model` to it and writes it, with the machine and the date, to
 ``pidpipe/measurement/cost_models.json`` (entry ``liggghts``), which the sequential allocation
 reads (:mod:`pidpipe.measurement.allocation`).
@@ -43,7 +44,8 @@ ACCEL_G, FILL_PCT = 5.0, 50.0
 COST_CELLS = (1, 2, 4, 7, 14, 24)
 """Cells per run at which the cost of a run is measured (``--cost``)."""
 
-COST_RUNS = ((50.0, 1000.0, COST_CELLS), (50.0, 500.0, COST_CELLS), (90.0, 1000.0, (1, 7)))
+COST_RUNS = ((50.0, 1000.0, COST_CELLS), (50.0, 500.0, COST_CELLS), (90.0, 1000.0, (1, 7)),
+             (25.0, 1000.0, (1, 7, 24)))
 """(fill %, frequency Hz, cells per run) of the cost measurement, at 5 g."""
 
 
