@@ -130,8 +130,8 @@ def format_result(record: dict) -> str:
     if record.get("cells"):
         lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "
                         f"{record['ceq_cell_cycle_sem_ns_m']:.2g}, from the spread between cells "
-                        f"{record['ceq_cell_between_cells_sem_ns_m']:.2g} N s/m (the larger is "
-                        f"reported); seeds {', '.join(str(s) for s in fid['seeds'])}")
+                        f"{record['ceq_cell_between_cells_sem_ns_m']:.2g} N s/m (one two-level "
+                        f"estimate of both is reported); seeds {', '.join(str(s) for s in fid['seeds'])}")
     return "\n".join(lines)
 
 

@@ -139,11 +139,15 @@ class Sampling:
     sem_block_cycles : int
         Cycles per block of the block-means standard error.
     target_relative_sem : float or None
-        Rerun with more cycles until SEM / C_eq is at most this; None: one stage.
+        Measure (more cells, more cycles) until SEM / C_eq is at most this; None: the pilot only.
     max_measured_cycles : int
-        Cap on the measured cycles of the adaptive stages.
+        Cap on the measured cycles of a case's runs.
     cells_per_run : int
-        Cells side by side in one run, each with its own packing.
+        Cells side by side in one run, each with its own packing (the pilot's cells).
+    max_cells_per_case : int
+        Cap on the cells (packings) a case measures to reach its target.
+    max_case_cpu_s : float
+        Cap on a case's planned CPU time, s.
     """
 
     transient_cycles: int
@@ -153,6 +157,8 @@ class Sampling:
     target_relative_sem: float | None
     max_measured_cycles: int
     cells_per_run: int
+    max_cells_per_case: int
+    max_case_cpu_s: float
 
     @classmethod
     def from_config(cls, config: dict) -> "Sampling":
@@ -161,7 +167,8 @@ class Sampling:
         return cls(int(fid["transient_cycles"]), float(fid["transient_min_time_s"]),
                    int(fid["measured_cycles"]), int(fid["sem_block_cycles"]),
                    None if target is None else float(target), int(fid["max_measured_cycles"]),
-                   int(fid["cells_per_run"]))
+                   int(fid["cells_per_run"]), int(fid["max_cells_per_case"]),
+                   float(fid["max_case_cpu_s"]))
 
     def transient_cycles_at(self, freq_hz: float) -> int:
         """Cycles discarded before measuring at ``freq_hz`` (Hz): the configured count, or more

@@ -12,9 +12,10 @@ still written. A missing LIGGGHTS binary or a packing that does not fit fails th
 from __future__ import annotations
 
 import logging
+from pathlib import Path
 
 from pidpipe.cases import CaseSpec
-from pidpipe.config.settings import ShakeSettings
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, ParseError, PidpipeError
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -25,8 +26,60 @@ logger = logging.getLogger("pidpipe.campaign")
 ENGINE_ATTEMPTS = 2
 
 
+#: Cells beyond the pilot's: cell j of replicate q shakes packing EXTRA_PACKINGS_FROM + 1000 q + j
+#: of its fill (seed fidelity.seed + that index), shared by every case of that fill and replicate;
+#: above any pilot packing (replicates <= 100, cells_per_run <= 24) and below the next replicate's.
+EXTRA_PACKINGS_FROM = 10000
+EXTRA_PACKINGS_PER_REPLICATE = 1000
+
+
+def extra_packing_index(replicate: int, cell: int) -> int:
+    """Packing index of cell ``cell`` (counted from 0 over the case's cells) of a replicate."""
+    if not 0 <= cell < EXTRA_PACKINGS_PER_REPLICATE:
+        raise ValueError(f"cell {cell} of a case: 0 to {EXTRA_PACKINGS_PER_REPLICATE - 1} are allowed")
+    return EXTRA_PACKINGS_FROM + EXTRA_PACKINGS_PER_REPLICATE * int(replicate) + int(cell)
+
+
+def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
+                  folder: str | Path) -> list:
+    """The packings ``indices`` of a fill, poured on demand into ``folder`` and kept there.
+
+    A packing already in ``folder`` with the settings' seed and sphere count is reused; else it
+    is poured (:func:`pidpipe.liggghts.pour.pour`, seed ``fidelity.seed`` + index) and saved
+    atomically. A lock file per packing lets concurrent cases of the same fill pour it once;
+    the same seed gives the same packing, so which case pours it changes nothing.
+
+    Returns
+    -------
+    list of Packing
+    """
+    import fcntl
+
+    from pidpipe.cases import format_number
+    from pidpipe.cell.packing import load_packing, save_packing
+    from pidpipe.liggghts.pour import pour
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    wanted, seed = settings.fill.spheres(fill_pct), settings.pouring.seed
+    packings = []
+    for index in indices:
+        name = f"r{format_number(fill_pct)}pct_rep{index}"
+        path = folder / f"{name}.json"
+        with open(folder / f".{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            packing = load_packing(path) if path.is_file() else None
+            if packing is None or packing.seed != seed + index or packing.n_spheres != wanted:
+                packing = pour(settings, fill_pct, index, folder / "work" / name)
+                save_packing(packing, path)
+                logger.info("poured packing %s for a case's target: %d spheres, seed %d",
+                            name, packing.n_spheres, packing.seed)
+        packings.append(packing)
+    return packings
+
+
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
-                  workdir: str, log_path: str) -> dict:
+                  workdir: str, log_path: str, packing_pool: str | None = None) -> dict:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -46,6 +99,9 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The case's folder for the deck, the mesh and LIGGGHTS' files.
     log_path : path
         The rule's log, named in a failure's message.
+    packing_pool : path, optional
+        Where the further packings of a case with a target are poured and shared
+        (:func:`pool_packings`); None: the case keeps its pilot's cells.
 
     Returns
     -------
@@ -60,17 +116,29 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The packing does not fit or has not settled.
     """
     from pidpipe.cell.packing import load_packing
+    from pidpipe.cell.scene import CellScene
     from pidpipe.liggghts.shake import write_record
     from pidpipe.measurement.adaptive import run_to_target
+    from pidpipe.measurement.cost_model import load_cost_model
 
     case = CaseSpec.from_id(case_id)
     settings = ShakeSettings.from_config(config)
+    plan = CellScene.of(settings).timestep(case.freq_hz)
     run_case = case_runner(settings)
     packings = [load_packing(path) for path in packing_paths]
+
+    def new_packings(first: int, count: int) -> list:
+        indices = [extra_packing_index(case.replicate, cell) for cell in range(first, first + count)]
+        return pool_packings(PourSettings.from_config(config), case.fill_pct, indices, packing_pool)
+
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(settings, case, packings, workdir, run=run_case)
+            record = run_to_target(settings, case, packings, workdir, run=run_case,
+                                   new_packings=new_packings if packing_pool else None,
+                                   cost_model=load_cost_model(settings.engine),
+                                   steps_per_cycle=plan.steps_per_cycle,
+                                   transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)

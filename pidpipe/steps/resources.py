@@ -1,15 +1,16 @@
 """Resources that a cluster job of one case asks for: its time limit from the planned steps.
 
-A case's shaking run takes ``steps = cycles x steps_per_cycle`` time steps (the timestep plan of
+A case's pilot run takes ``steps = cycles x steps_per_cycle`` time steps (the timestep plan of
 :meth:`pidpipe.cell.scene.CellScene.timestep`; cycles = transient + measured). With
-``fidelity.target_relative_sem`` set, :func:`pidpipe.measurement.adaptive.run_to_target` may run
-the case again with more measured cycles, up to ``fidelity.max_measured_cycles``, at most
-:data:`pidpipe.measurement.adaptive.MAX_STAGES` runs in all; the limit covers that worst case, since a job
+``fidelity.target_relative_sem`` set, :func:`pidpipe.measurement.adaptive.run_to_target` plans
+further runs (more cells, more cycles) only while their planned CPU stays within
+``fidelity.max_case_cpu_s``; the limit adds that cap, so it covers the worst case, since a job
 that SLURM stops at its limit loses all of its work.
 
 Wall time of the job, s: ``SETUP_S + steps * (US_PER_STEP_FIRST_CELL + (cells - 1) *
-US_PER_STEP_EXTRA_CELL) * 1e-6``, times :data:`MARGIN`, times the attempt (a job killed at its
-limit is retried with a longer one), in whole minutes (SLURM's ``--time``).
+US_PER_STEP_EXTRA_CELL) * 1e-6`` (+ ``max_case_cpu_s`` with a target), times :data:`MARGIN`,
+times the attempt (a job killed at its limit is retried with a longer one), in whole minutes
+(SLURM's ``--time``).
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import math
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import ShakeSettings
-from pidpipe.measurement.adaptive import MAX_STAGES
 
 #: Seconds of a case job besides its time steps: Python and pidpipe start-up, deck and mesh,
 #: LIGGGHTS start-up and the parse. Measured Dec 2026 on the reduced campaign (2 cores shared):
@@ -37,7 +37,7 @@ MARGIN = 2.0
 
 
 def case_planned_steps(settings: ShakeSettings, case: CaseSpec) -> int:
-    """Time steps of a case's shaking runs at most, all stages of a target SEM included.
+    """Time steps of a case's pilot run (its only run without a target SEM).
 
     Parameters
     ----------
@@ -48,23 +48,21 @@ def case_planned_steps(settings: ShakeSettings, case: CaseSpec) -> int:
     Returns
     -------
     int
-        (transient + measured) x steps_per_cycle; with ``fidelity.target_relative_sem`` set,
-        plus (MAX_STAGES - 1) reruns of (transient + max_measured_cycles) cycles each.
+        (transient + measured) x steps_per_cycle.
     """
     sampling = settings.sampling
     steps_per_cycle = CellScene.of(settings).timestep(case.freq_hz).steps_per_cycle
     transient = sampling.transient_cycles_at(case.freq_hz)
-    cycles = transient + sampling.measured_cycles
-    if sampling.target_relative_sem is not None:
-        cycles += (MAX_STAGES - 1) * (transient + sampling.max_measured_cycles)
-    return steps_per_cycle * cycles
+    return steps_per_cycle * (transient + sampling.measured_cycles)
 
 
 def case_wall_time_s(settings: ShakeSettings, case: CaseSpec) -> float:
-    """Expected wall time of a case job, s (no margin): start-up plus its planned steps."""
+    """Longest expected wall time of a case job, s (no margin): start-up, the pilot's planned
+    steps and, with a target SEM, the CPU cap of its further runs."""
     cells = settings.sampling.cells_per_run
     us_per_step = US_PER_STEP_FIRST_CELL + (cells - 1) * US_PER_STEP_EXTRA_CELL
-    return SETUP_S + case_planned_steps(settings, case) * us_per_step * 1e-6
+    further = settings.sampling.max_case_cpu_s if settings.sampling.target_relative_sem else 0.0
+    return SETUP_S + case_planned_steps(settings, case) * us_per_step * 1e-6 + further
 
 
 def case_runtime_min(settings: ShakeSettings, case: CaseSpec, attempt: int = 1) -> int:

@@ -249,7 +249,7 @@ def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
     script.chmod(0o755)
     monkeypatch.setenv("PIDPIPE_LIGGGHTS", str(script))
     case_config = stage_config(config, "case")
-    case_config["fidelity"].update(transient_cycles=1, measured_cycles=2)
+    case_config["fidelity"].update(transient_cycles=1, measured_cycles=2, target_relative_sem=None)
     packing_path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
     log = tmp_path / "case.log"
     run_step(simulate_case, str(log), config=case_config,
