@@ -147,4 +147,5 @@ def common_values(config: dict, positions_m: np.ndarray, timestep_s: float, mesh
         "positions_m": positions.tolist(),
         "mesh_file": mesh_file,
         "thermo_every": thermo_every,
+        "store_wall_force": False,
     }

@@ -21,8 +21,14 @@ from pidpipe.cell.layout import place_packings, side_by_side, write_cells_mesh
 from pidpipe.cell.packing import Packing, cell_from_config, check_packing
 from pidpipe.cell.patch import patch_box
 from pidpipe.config import particle_properties
+from pidpipe.config.inspection import MotionSampling, MovieSettings, motion_sampling
 from pidpipe.liggghts.contact_energy import boundary_elastic_energy
 from pidpipe.liggghts.decks import common_values, render
+from pidpipe.liggghts.motion import ENERGY_FILE as MOTION_ENERGY_FILE
+from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
+from pidpipe.liggghts.motion import motion_deck_values, motion_record
+from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
+from pidpipe.liggghts.movie import movie_deck_values, write_case_movie
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
@@ -55,7 +61,8 @@ the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
 
 
 def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
-                      workdir: Path) -> dict:
+                      workdir: Path, motion: MotionSampling | None = None,
+                      movie: MovieSettings | None = None) -> dict:
     """Write the cells' wall mesh and the shake deck of a case; return the run's plan.
 
     Parameters
@@ -67,12 +74,18 @@ def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence
         One packing per cell; several cells are laid out side by side
         (:mod:`pidpipe.replicate_cells`).
     workdir : Path
+    motion : MotionSampling, optional
+        Sample the bed's motion within the cycle (:mod:`pidpipe.liggghts.motion`); off if None.
+    movie : MovieSettings, optional
+        Dump a movie (:mod:`pidpipe.liggghts.movie`); off if None. With both off the deck is
+        the plain shake deck.
 
     Returns
     -------
     dict
         ``deck``, ``period_s``, ``steps_per_cycle``, ``cycles``, ``timestep`` (a TimestepPlan),
-        ``amplitude_m``, ``layout`` (a CellLayout).
+        ``amplitude_m``, ``layout`` (a CellLayout), ``motion`` and ``movie`` (the deck's values
+        of each, or None).
     """
     packings = as_packing_list(packings)
     cell = cell_from_config(config)
@@ -109,10 +122,18 @@ def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=fidelity["timestep_rayleigh_fraction"] * (1.0 + 1e-6),
                   hertz_fraction_limit=HERTZ_FRACTION_LIMIT)
+    values.update(
+        motion=None if motion is None else motion_deck_values(
+            motion, plan.steps_per_cycle, cell, radius, len(cells)),
+        movie=None if movie is None else movie_deck_values(
+            movie, plan.steps_per_cycle, cycles, workdir),
+        store_wall_force=motion is not None)
     deck = workdir / "shake.lmp"
     deck.write_text(render("shake.lmp.j2", values), encoding="utf-8")
     return {"deck": deck, "period_s": period, "cycles": cycles, "timestep": plan,
-            "steps_per_cycle": plan.steps_per_cycle, "amplitude_m": amplitude, "layout": layout}
+            "steps_per_cycle": plan.steps_per_cycle, "amplitude_m": amplitude, "layout": layout,
+            "cells": cells,
+            "motion": values["motion"], "movie": values["movie"]}
 
 
 def as_packing_list(packings: Packing | Sequence[Packing]) -> list[Packing]:
@@ -141,7 +162,8 @@ def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
 
 
 def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
-             workdir: str | Path) -> dict:
+             workdir: str | Path, movie: MovieSettings | None = None,
+             movie_dir: str | Path | None = None) -> dict:
     """Shake one case in LIGGGHTS and return its record.
 
     Parameters
@@ -154,6 +176,10 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
         by side in one run (:mod:`pidpipe.replicate_cells`), whose mean cell the record reports.
     workdir : path
         The case's own folder (deck, meshes, LIGGGHTS output and screen).
+    movie : MovieSettings, optional
+        Also write a ParaView movie of the run's last cycles into ``movie_dir``
+        (default ``workdir/movie``); off if None.
+    movie_dir : path, optional
 
     Returns
     -------
@@ -166,9 +192,11 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
     packings = as_packing_list(packings)
     for index, packing in enumerate(packings):
         check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
-    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE):
+    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
+                  MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_shake_deck(config, case, packings, workdir)
+    motion = motion_sampling(config)
+    plan = render_shake_deck(config, case, packings, workdir, motion=motion, movie=movie)
     engine = run_deck(plan["deck"], case.case_id)
     cells, series, ledger_mismatch = read_cell_series(config, plan, workdir)
     fidelity = config["fidelity"]
@@ -183,6 +211,19 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m,
                             dissipated_j=cell.dissipated_j.tolist())
+    inspection = {"regime": regime(case.accel_g)}
+    if motion is not None:
+        inspection = motion_record(plan, workdir, transient, [cell["weight_n"] for cell in
+                                                              plan["cells"]],
+                                   [float(np.ptp(p.centres()[:, 2])) for p in packings],
+                                   packings[0].radius_m, motion.windows_per_cycle)
+    if movie is not None:
+        movie_dir = Path(movie_dir) if movie_dir is not None else workdir / "movie"
+        write_case_movie(workdir, movie_dir, cell_from_config(config), plan["layout"],
+                         plan["timestep"].timestep_s, plan["period_s"], plan["amplitude_m"],
+                         plan["movie"]["n_frames"])
+        inspection["movie"] = {"frames": plan["movie"]["n_frames"], "cycles": movie.cycles,
+                               "frames_per_cycle": movie.frames_per_cycle}
     flags = (containment_flags(config, series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))
@@ -199,7 +240,7 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
         "flags": flags,
         **summary,
         **steady.as_record(),
-        "regime": regime(case.accel_g),
+        **inspection,
         "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()) / len(cells),
         "ledger_mismatch_of_gross_work": ledger_mismatch,
         "cycles": series.as_record(),
