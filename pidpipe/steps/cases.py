@@ -10,9 +10,11 @@ still written. A missing LIGGGHTS binary or a packing that does not fit fails th
 
 from __future__ import annotations
 
+import functools
 import logging
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.inspection import MovieSettings
 from pidpipe.errors import EngineError, ParseError
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -24,7 +26,7 @@ ENGINE_ATTEMPTS = 2
 
 
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
-                  workdir: str, log_path: str) -> dict:
+                  workdir: str, log_path: str, movie: dict | None = None) -> dict:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -43,6 +45,9 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The case's folder for the deck, the mesh and LIGGGHTS' files.
     log_path : path
         The rule's log, named in a failure's message.
+    movie : dict, optional
+        ``frames_per_cycle``, ``cycles`` and ``directory``: also write the run's ParaView movie
+        there (``inspection.movie_cases``); empty or None: no movie.
 
     Returns
     -------
@@ -64,10 +69,15 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     case = CaseSpec.from_id(case_id)
     find_liggghts()
     packings = [load_packing(path) for path in packing_paths]
+    shake = run_case
+    if movie:
+        shake = functools.partial(run_case, movie=MovieSettings(int(movie["frames_per_cycle"]),
+                                                               int(movie["cycles"])),
+                                  movie_dir=movie["directory"])
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(config, case, packings, workdir, run=run_case)
+            record = run_to_target(config, case, packings, workdir, run=shake)
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)

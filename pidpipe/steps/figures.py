@@ -43,3 +43,20 @@ def plot_optimisation_convergence(results_json: str, png: str) -> None:
 
     plot_convergence(read_results_json(results_json), stem=Path(png).with_suffix(""))
     logger.info("convergence figure: %s (and PDF)", png)
+
+
+def plot_case_phase(record_path: str, png: str) -> None:
+    """The phase-resolved figure of one case record (:mod:`pidpipe.figures.phase`), PNG and PDF.
+
+    Parameters
+    ----------
+    record_path : path
+        The case record (JSON) with its ``motion``.
+    png : path
+        The PNG file; the PDF goes next to it, with the same stem.
+    """
+    from pidpipe.design.records import read_record
+    from pidpipe.figures.phase import plot_phase_profile
+
+    plot_phase_profile(read_record(record_path), stem=Path(png).with_suffix(""))
+    logger.info("phase-resolved figure: %s (and PDF)", png)

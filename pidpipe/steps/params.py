@@ -37,6 +37,12 @@ def workflow_config(raw: dict) -> dict:
     if external is not None and not Path(external).is_file():
         raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "
                           f"no such file (relative paths start at {Path.cwd()})")
+    known = {case.case_id for case in campaign_cases(config)}
+    for key in ("movie_cases", "phase_figure_cases"):
+        unknown = [case_id for case_id in config["inspection"][key] if case_id not in known]
+        if unknown:
+            raise ConfigError(f"config key inspection.{key} = {unknown[0]!r} is not allowed: "
+                              "not a case of the campaign's grid (see pidpipe check-config)")
     return config
 
 

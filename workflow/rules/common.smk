@@ -105,8 +105,26 @@ def get_final_targets():
         "results/figures/convergence.png",
     ]
     if config["optimisation"]["external_ceq_table"] is None:
-        targets = get_case_records() + ["results/ceq_table.csv"] + targets
+        targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets
+
+
+def get_phase_figures():
+    """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
+    if config["inspection"]["phase_windows_per_cycle"] == 0:
+        return []
+    return [f"results/figures/phase/{case_id}.png"
+            for case_id in config["inspection"]["phase_figure_cases"]]
+
+
+def get_case_movie(wildcards):
+    """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
+    case_id = get_case_id(wildcards)
+    if case_id not in config["inspection"]["movie_cases"]:
+        return {}
+    return {"frames_per_cycle": config["inspection"]["movie_frames_per_cycle"],
+            "cycles": config["inspection"]["movie_cycles"],
+            "directory": f"results/movies/{case_id}"}
 
 
 def get_validation_cases():

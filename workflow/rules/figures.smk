@@ -39,7 +39,24 @@ rule plot_convergence:
         "../scripts/plot_convergence.py"
 
 
+rule plot_phase:
+    input:
+        record="results/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.json",
+    output:
+        png=report(
+            "results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.png",
+            caption="../report/phase.rst",
+            category="4. Inside the cases",
+        ),
+        pdf="results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.pdf",
+    log:
+        "logs/plot_phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
+    script:
+        "../scripts/plot_phase.py"
+
+
 rule figures:
     input:
         rules.plot_surrogate.output,
         rules.plot_convergence.output,
+        get_phase_figures(),

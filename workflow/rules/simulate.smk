@@ -11,6 +11,7 @@ rule simulate_case:
         config=get_case_config(),
         case_id=get_case_id,
         workdir="results/work/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}",
+        movie=get_case_movie,
     log:
         "logs/simulate_case/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
     benchmark:

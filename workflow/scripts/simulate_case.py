@@ -12,4 +12,5 @@ run_step(
     record_path=snakemake.output.record,
     workdir=snakemake.params.workdir,
     log_path=snakemake.log[0],
+    movie=snakemake.params.movie,
 )
