@@ -1,0 +1,106 @@
+"""Looking inside real LIGGGHTS cases: the regime from the motion, the phase profile, the movie."""
+
+import math
+
+import meshio
+import numpy as np
+import pytest
+
+from pidpipe.cases import CaseSpec
+from pidpipe.cell.packing import cell_from_config
+from pidpipe.cell.vtk_series import read_pvd
+from pidpipe.config.inspection import MovieSettings
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
+from tests.conftest import short_config
+
+pytestmark = pytest.mark.engine
+
+
+def _config(transient=5, measured=12):
+    cfg = short_config(transient=transient, measured=measured)
+    cfg["fidelity"]["cells_per_run"] = 1
+    return cfg
+
+
+def _check_profile(record):
+    """The phase profile closes: its dissipation over a cycle is the record's E_d, and the floor
+    less the lid carries the bed's weight on average (the side walls' friction the rest)."""
+    profile = record["motion"]["profile"]
+    dissipated = np.mean(profile["dissipation_w"]["mean"]) * profile["period_s"]
+    assert dissipated == pytest.approx(record["ed_cycle_mean_j"], rel=0.05)
+    carried = np.mean(profile["floor_force_n"]["mean"]) - np.mean(profile["lid_force_n"]["mean"])
+    assert 0.8 < carried / profile["bed_weight_n"] < 1.2
+
+
+@pytest.mark.parametrize("freq_hz, accel_g, measured, expected", [
+    (1000, 1, 12, "no_lift_off"),        # the bed rides on the floor
+    (500, 5, 12, "bouncing_bed"),        # airborne 60 % of the cycle, lands once at phase ~0.57
+    (100, 5, 12, "period_doubling"),     # long and short flights alternate (E_d lag-1 -0.94)
+])
+def test_regime_of_half_fill_cases(tmp_path, half_fill_packing, freq_hz, accel_g, measured, expected):
+    record = run_case(_config(measured=measured), CaseSpec(freq_hz, accel_g, 50), half_fill_packing,
+                      tmp_path)
+    features = record["motion"]["cell_features"][0]
+    assert record["regime"] == expected, features
+    assert record["motion"]["cell_regimes"] == [expected]
+    if expected == "period_doubling":
+        assert record["ed_lag1_autocorrelation"] < -0.5
+        _check_profile(record)
+    if expected == "bouncing_bed":
+        _check_profile(record)
+
+
+def test_a_nearly_full_cell_at_50_hz_and_10_g_hits_the_lid(tmp_path):
+    cfg = _config(measured=8)
+    packing = pour(cfg, 90, 0, tmp_path / "pour")
+    record = run_case(cfg, CaseSpec(50, 10, 90), packing, tmp_path / "shake")
+    assert record["regime"] == "lid_impacts", record["motion"]["cell_features"]
+    assert max(record["motion"]["profile"]["lid_force_n"]["mean"]) > record["motion"]["profile"]["bed_weight_n"]
+
+
+def test_sampling_the_motion_and_the_movie_leave_the_physics_alone(tmp_path, half_fill_packing):
+    """Two cells, with and without motion sampling and movie: the same per-cycle balance to the
+    last bit; the movie holds every sphere at every frame and the walls move with the floor."""
+    cfg = _config(transient=3, measured=4)
+    case = CaseSpec(500, 5, 50)
+    second = pour(cfg, 50, 1, tmp_path / "pour1")
+    packings = [half_fill_packing, second]
+    plain_cfg = _config(transient=3, measured=4)
+    plain_cfg["inspection"]["phase_windows_per_cycle"] = 0
+    plain = run_case(plain_cfg, case, packings, tmp_path / "plain")
+    assert "motion" not in plain and plain["regime"] == "impacting"
+    movie = MovieSettings(frames_per_cycle=5, cycles=2)
+    seen = run_case(cfg, case, packings, tmp_path / "seen", movie=movie, movie_dir=tmp_path / "movie")
+    assert seen["cycles"] == plain["cycles"]
+    assert seen["ceq_cell_ns_m"] == plain["ceq_cell_ns_m"]
+    assert len(seen["motion"]["cell_regimes"]) == 2
+
+    entries = read_pvd(tmp_path / "movie" / "movie.pvd")
+    spheres = [e for e in entries if e[1] == 0]
+    walls = [e for e in entries if e[1] == 1]
+    assert len(spheres) == len(walls) == 10 == seen["movie"]["frames"]
+    n_spheres = half_fill_packing.n_spheres + second.n_spheres
+    cell = cell_from_config(cfg)
+    offsets = np.unique(np.round(np.array(meshio.read(walls[0][2]).points)[:, :2], 9), axis=0)
+    assert len(offsets) > 6    # two cells' corners
+    period = 1.0 / case.freq_hz
+    amplitude = seen["displacement_amplitude_m"]
+    rest = None
+    for time, _, path in walls:
+        mesh = meshio.read(path)
+        if rest is None:
+            rest = mesh.points - [0.0, 0.0, amplitude * (math.cos(2 * math.pi * time / period) - 1.0)]
+        shift = mesh.points - rest
+        np.testing.assert_allclose(shift[:, 2], amplitude * (math.cos(2 * math.pi * time / period) - 1.0),
+                                   atol=1e-15)
+    np.testing.assert_allclose(rest[:, 2].min(), cell.floor_z_m)
+    times = [t for t, _, _ in spheres]
+    assert times[-1] < seen["fidelity"]["steps_per_cycle"] * 7 * seen["fidelity"]["timestep_s"] + 1e-12
+    assert times[0] >= 5 * period - 1e-12      # the last two of 7 cycles
+    for _, _, path in spheres:
+        mesh = meshio.read(path)
+        assert len(mesh.points) == n_spheres
+        assert mesh.point_data["spin_rad_s"].shape == (n_spheres, 3)
+        assert np.all(mesh.points[:, 2] > cell.floor_z_m - 2 * amplitude)
+        assert sorted(set(mesh.point_data["cell"].tolist())) == [0, 1]
