@@ -39,17 +39,23 @@ def plot_phase_profile(record: dict, stem: str | Path | None = None) -> Figure:
     -------
     matplotlib.figure.Figure
 
-    Raises
-    ------
-    ValueError
-        The record holds no motion (sampling off, or a failed case).
+    A record without a motion (a failed case, or one run with the sampling off) gives a figure
+    that says so, so that one failed case does not stop the gallery.
     """
     import matplotlib as mpl
 
     motion = record.get("motion")
     if not motion:
-        raise ValueError(f"case {record.get('case_id')} has no phase profile "
-                         "(inspection.phase_windows_per_cycle was 0, or the case failed)")
+        with mpl.rc_context(RC_PARAMS):
+            fig = Figure(figsize=(6.4, 2.0), layout="constrained")
+            ax = fig.subplots()
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, f"{record.get('case_id')}: no phase profile\n(status "
+                    f"{record.get('status')}; the bed's motion was not sampled)",
+                    ha="center", va="center", transform=ax.transAxes)
+            if stem is not None:
+                save_figure(fig, stem)
+        return fig
     profile = motion["profile"]
     phase = np.asarray(profile["phase"], dtype=float)
     fid = record["fidelity"]

@@ -113,3 +113,23 @@ def test_no_deck_holds_a_shell_include_or_string_variable(tmp_path):
             assert command[0] not in {"shell", "include", "python", "jump", "label"}
             if command[0] == "variable":
                 assert command[2] == "equal"
+
+
+def test_shake_deck_with_motion_sampling_and_movie_golden(tmp_path):
+    """The motion and movie blocks (off in every other golden deck): the walls store their
+    force, each cell gets its floor, lid, centre and energy columns, the movie reads its steps."""
+    from pidpipe.config.inspection import MotionSampling, MovieSettings
+
+    second = Packing(positions_m=[[0.0001, -0.0002, -0.0112]], radius_m=1.25e-3, n_spheres=1,
+                     seed=2, pile_height_m=0.003, lid_height_m=0.0254, max_speed_m_s=0.0,
+                     settle_time_s=0.1, fill_pct=10.0)
+    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), [_packing(), second], tmp_path,
+                             motion=MotionSampling(20), movie=MovieSettings(5, 2))
+    text = plan["deck"].read_text()
+    assert "meshes cell store_force yes\n" in text
+    assert " v_power_cell1 v_floor_force_cell1 v_lid_force_cell1 v_centre_cell1" in text
+    assert plan["motion"]["window_steps"] == 2223 // 20
+    steps = [int(s) for s in (tmp_path / "movie_steps.txt").read_text().split()]
+    cycles = plan["cycles"]
+    assert len(steps) == 10 + 1 and steps[0] == (cycles - 2) * 2223 and steps[-1] == cycles * 2223 + 1
+    _compare("shake_inspection.lmp", text)
