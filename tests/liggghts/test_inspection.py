@@ -104,3 +104,24 @@ def test_sampling_the_motion_and_the_movie_leave_the_physics_alone(tmp_path, hal
         assert mesh.point_data["spin_rad_s"].shape == (n_spheres, 3)
         assert np.all(mesh.points[:, 2] > cell.floor_z_m - 2 * amplitude)
         assert sorted(set(mesh.point_data["cell"].tolist())) == [0, 1]
+
+
+def test_pidpipe_case_movie_writes_the_series_it_announces(tmp_path, capsys):
+    import yaml
+
+    from pidpipe.cli import main
+    from tests._snakemake import TEST_CONFIG
+
+    raw = yaml.safe_load(TEST_CONFIG.read_text())
+    raw["fidelity"].update(transient_cycles=3, transient_min_time_s=0.0, measured_cycles=4)
+    raw["inspection"].update(movie_frames_per_cycle=4, movie_cycles=2)
+    config_path = tmp_path / "config.yaml"
+    config_path.write_text(yaml.safe_dump(raw))
+    code = main(["--config", str(config_path), "case", "--freq-hz", "1000", "--accel-g", "10",
+                 "--fill-pct", "25", "--workdir", str(tmp_path / "work"), "--movie"])
+    out = capsys.readouterr().out
+    assert code == 0
+    pvd = tmp_path / "work" / "f1000Hz_G10_r25pct_rep0" / "movie" / "movie.pvd"
+    assert f"8 frames over the last 2 cycles in {pvd}" in out
+    assert "regime " in out and "(cells: 1 " in out
+    assert len(read_pvd(pvd)) == 16
