@@ -37,13 +37,16 @@ def workflow_config(raw: dict) -> dict:
     if external is not None and not Path(external).is_file():
         raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "
                           f"no such file (relative paths start at {Path.cwd()})")
-    known = {case.case_id for case in campaign_cases(config)}
-    for key in ("movie_cases", "phase_figure_cases"):
-        unknown = [case_id for case_id in config["inspection"][key] if case_id not in known]
-        if unknown:
-            raise ConfigError(f"config key inspection.{key} = {unknown[0]!r} is not allowed: "
-                              "not a case of the campaign's grid (see pidpipe check-config)")
     return config
+
+
+def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
+    """The case ids of ``inspection.<key>`` (``movie_cases``, ``phase_figure_cases``) that are
+    cases of the campaign, and those that are not (ignored, so that a grid cut down for a quick
+    run keeps working; the workflow prints them)."""
+    known = {case.case_id for case in campaign_cases(config)}
+    listed = config["inspection"][key]
+    return ([c for c in listed if c in known], [c for c in listed if c not in known])
 
 
 def campaign_cases(config: dict) -> list[CaseSpec]:

@@ -5,7 +5,7 @@ import sys
 from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
-                                  environment_params)
+                                  environment_params, inspected_cases)
 from pidpipe.config.stages import stage_config
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
@@ -13,6 +13,12 @@ from pidpipe.errors import ConfigError
 
 CASES = campaign_cases(config)
 PACKING_IDS = campaign_packing_ids(config)
+PHASE_FIGURE_CASES, _ignored_figures = inspected_cases(config, "phase_figure_cases")
+MOVIE_CASES, _ignored_movies = inspected_cases(config, "movie_cases")
+for _key, _ignored in (("phase_figure_cases", _ignored_figures), ("movie_cases", _ignored_movies)):
+    if _ignored:
+        print(f"pidpipe: inspection.{_key}: not cases of this campaign, ignored: "
+              + ", ".join(_ignored), file=sys.stderr)
 
 # Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
 CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
@@ -113,14 +119,13 @@ def get_phase_figures():
     """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
     if config["inspection"]["phase_windows_per_cycle"] == 0:
         return []
-    return [f"results/figures/phase/{case_id}.png"
-            for case_id in config["inspection"]["phase_figure_cases"]]
+    return [f"results/figures/phase/{case_id}.png" for case_id in PHASE_FIGURE_CASES]
 
 
 def get_case_movie(wildcards):
     """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
     case_id = get_case_id(wildcards)
-    if case_id not in config["inspection"]["movie_cases"]:
+    if case_id not in MOVIE_CASES:
         return {}
     return {"frames_per_cycle": config["inspection"]["movie_frames_per_cycle"],
             "cycles": config["inspection"]["movie_cycles"],
