@@ -2,8 +2,9 @@
 
 For 500 Hz / 5 g / 50 % and 1000 Hz / 10 g / 50 % at the default fidelity (7 cells per run) it
 runs each case three ways, interleaved and twice: plain (``inspection.phase_windows_per_cycle:
-0``), with the motion sampled (20 windows a cycle, the default), and with the motion and a movie
-(20 frames a cycle over the last 3 cycles). It reports LIGGGHTS' CPU time (the smaller of the two
+0``), with the motion sampled (20 windows a cycle, forces sampled every 10 steps: the default),
+and with the motion and a movie (20 frames a cycle over the last 3 cycles). It also prints how
+closely the phase profile's dissipation over a cycle matches the record's E_d. It reports LIGGGHTS' CPU time (the smaller of the two
 repetitions) and its ratio to the plain run, the time to write the VTK series and its size.
 
 Run: .venv/bin/python benchmarks/bench_inspection.py
@@ -33,8 +34,8 @@ def main() -> None:
     plain["inspection"]["phase_windows_per_cycle"] = 0
     cells = int(config["fidelity"]["cells_per_run"])
     lines = ["| case | plain CPU s | + motion CPU s (ratio) | + motion + movie CPU s (ratio) | movie frames | "
-             "movie run wall s (whole run_case) | movie size MB | regime |",
-             "|---|---|---|---|---|---|---|---|"]
+             "movie run wall s (whole run_case) | movie size MB | profile E_d / E_d | regime |",
+             "|---|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         packings = [pour(config, 50, k, scratch / f"pour{k}") for k in range(cells)]
@@ -52,10 +53,13 @@ def main() -> None:
                 cpu["movie"].append(movie["engine"]["liggghts_cpu_time_s"])
             best = {k: min(v) for k, v in cpu.items()}
             size = sum(p.stat().st_size for p in (scratch / "movie").iterdir()) / 1e6
+            profile = seen["motion"]["profile"]
+            closure = (sum(profile["dissipation_w"]["mean"]) / len(profile["phase"])
+                       * profile["period_s"] / seen["ed_cycle_mean_j"])
             lines.append(
                 f"| {case.case_id}, {cells} cells | {best['plain']:.2f} | {best['motion']:.2f} "
                 f"({best['motion'] / best['plain']:.3f}) | {best['movie']:.2f} ({best['movie'] / best['plain']:.3f}) | "
-                f"{movie['movie']['frames']} | {movie_wall:.2f} | {size:.2f} | {seen['regime']} "
+                f"{movie['movie']['frames']} | {movie_wall:.2f} | {size:.2f} | {closure:.3f} | {seen['regime']} "
                 f"({', '.join(seen['motion']['cell_regimes'])}) |")
     lines.append("")
     lines.append(f"CPU = LIGGGHTS' CPU time, the smaller of {REPETITIONS} interleaved repetitions; "

@@ -17,14 +17,20 @@ class MotionSampling:
     Attributes
     ----------
     windows_per_cycle : int
-        Windows a cycle is split into (about: a window is a whole number of steps).
+        Windows a cycle is split into (about: a window is a whole number of samples).
+    sample_every_steps : int
+        The window means of the forces and the power sample every this many steps (evaluating
+        them every step tripled LIGGGHTS' cost of 7 cells: ``benchmarks/bench_inspection.py``).
     """
 
     windows_per_cycle: int
+    sample_every_steps: int = 10
 
     def window_steps(self, steps_per_cycle: int) -> int:
-        """Steps per window: ``steps_per_cycle // windows_per_cycle``, at least 1."""
-        return max(1, int(steps_per_cycle) // int(self.windows_per_cycle))
+        """Steps per window: ``steps_per_cycle // windows_per_cycle`` rounded down to whole
+        samples, at least one sample."""
+        every = int(self.sample_every_steps)
+        return every * max(1, int(steps_per_cycle) // int(self.windows_per_cycle) // every)
 
 
 @dataclass(frozen=True)
@@ -46,7 +52,8 @@ class MovieSettings:
 def motion_sampling(config: dict) -> MotionSampling | None:
     """The motion sampling of a validated config; None when ``phase_windows_per_cycle`` is 0."""
     windows = int(config["inspection"]["phase_windows_per_cycle"])
-    return MotionSampling(windows) if windows > 0 else None
+    every = int(config["inspection"]["phase_sample_every_steps"])
+    return MotionSampling(windows, every) if windows > 0 else None
 
 
 def movie_settings(config: dict) -> MovieSettings:

@@ -20,7 +20,7 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
         "fidelity": ["timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
                      "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction",
                      "target_relative_sem", "max_measured_cycles", "cells_per_run"],
-        "inspection": ["phase_windows_per_cycle"],
+        "inspection": ["phase_windows_per_cycle", "phase_sample_every_steps"],
     },
 }
 

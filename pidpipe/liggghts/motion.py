@@ -2,15 +2,16 @@
 
 With motion sampling on, the shake deck (``templates/shake.lmp.j2``, its ``motion`` block) stores
 the walls' force on every sphere (``store_force yes`` on ``fix walls``) and writes two ``fix
-ave/time`` files over consecutive windows of :attr:`MotionSampling.window_steps` steps:
+ave/time`` files over consecutive windows of :meth:`MotionSampling.window_steps` steps:
 
-- :data:`WINDOW_FILE`, window means, per cell: the walls' power into the cell's spheres; the
-  floor's upward force on them (the walls' z force on the spheres whose centre is within
-  :data:`CONTACT_BAND_RADII` radii of the floor, so touching it); the spheres' upward force on
-  the lid (the same at the lid, sign reversed); the height above the floor of the centre of mass
-  and of the lowest and highest sphere centre;
-- :data:`ENERGY_FILE`, each cell's kinetic + rotational + potential energy at every window end
-  (and at step 0).
+- :data:`WINDOW_FILE`, window means (sampled every :attr:`MotionSampling.sample_every_steps`
+  steps), per cell: the walls' power into the cell's spheres; the floor's upward force on them
+  (the walls' z force on the spheres whose centre is within :data:`CONTACT_BAND_RADII` radii of
+  the floor, so touching it); the spheres' upward force on the lid (the same at the lid, sign
+  reversed);
+- :data:`ENERGY_FILE`, at every window end (and at step 0), per cell: the kinetic + rotational +
+  potential energy, and the height above the floor of the centre of mass and of the lowest and
+  highest sphere centre.
 
 A side wall's friction on a sphere inside a band also counts, but a sphere in the band is within
 1 % of a radius of touching the floor or the lid. The cost of the sampling is measured in
@@ -35,8 +36,10 @@ CONTACT_BAND_RADII = 1.01
 """A sphere whose centre is within this many radii of the floor (or lid) touches it, or is
 within 1 % of a radius of it (the walls' computed position may lag the true one by a micrometre
 at 50 Hz, 10 g: a band of exactly one radius would miss resting spheres)."""
-WINDOW_COLUMNS = ("power_w", "floor_force_n", "lid_force_n", "centre_m", "bottom_m", "top_m")
+WINDOW_COLUMNS = ("power_w", "floor_force_n", "lid_force_n")
 """The window file's columns for each cell, in the deck's order (after the step)."""
+POINT_COLUMNS = ("energy_j", "centre_m", "bottom_m", "top_m")
+"""The energy file's columns for each cell, in the deck's order (after the step)."""
 
 
 def motion_deck_values(sampling: MotionSampling, steps_per_cycle: int, cell: HexCell,
@@ -55,8 +58,11 @@ def motion_deck_values(sampling: MotionSampling, steps_per_cycle: int, cell: Hex
         Cells in the run: one uses the mesh's power (``power``), several their own (``power_cellN``).
     """
     band = CONTACT_BAND_RADII * radius_m
+    window = sampling.window_steps(steps_per_cycle)
     return {
-        "window_steps": sampling.window_steps(steps_per_cycle),
+        "window_steps": window,
+        "sample_every_steps": int(sampling.sample_every_steps),
+        "samples_per_window": window // int(sampling.sample_every_steps),
         "floor_z_m": cell.floor_z_m,
         "band_m": band,
         "lid_band_offset_m": (cell.lid_z_m - cell.floor_z_m) - band,
@@ -91,19 +97,23 @@ def read_bed_motion(workdir: str | Path, window_steps: int, total_steps: int, ti
     n_cells = weight.size
     n_windows = int(total_steps) // int(window_steps)
     windows = read_ave_time(Path(workdir) / WINDOW_FILE, 1 + len(WINDOW_COLUMNS) * n_cells)
-    energy = read_ave_time(Path(workdir) / ENERGY_FILE, 1 + n_cells)
-    if len(windows) != n_windows or len(energy) != n_windows + 1:
+    points = read_ave_time(Path(workdir) / ENERGY_FILE, 1 + len(POINT_COLUMNS) * n_cells)
+    if len(windows) != n_windows or len(points) != n_windows + 1:
         raise ParseError(f"{Path(workdir) / WINDOW_FILE}: {len(windows)} windows and "
-                         f"{len(energy)} energies, expected {n_windows} and {n_windows + 1} "
+                         f"{len(points)} window ends, expected {n_windows} and {n_windows + 1} "
                          "(did the run finish?)")
-    expected_steps = window_steps * np.arange(1, n_windows + 1)
-    if not np.array_equal(windows[:, 0].astype(np.int64), expected_steps):
+    if not (np.array_equal(windows[:, 0].astype(np.int64), window_steps * np.arange(1, n_windows + 1))
+            and np.array_equal(points[:, 0].astype(np.int64), window_steps * np.arange(n_windows + 1))):
         raise ParseError(f"{Path(workdir) / WINDOW_FILE}: windows do not end every {window_steps} steps")
-    columns = windows[:, 1:].reshape(n_windows, n_cells, len(WINDOW_COLUMNS))
-    values = {name: columns[:, :, k] for k, name in enumerate(WINDOW_COLUMNS)}
+    means = windows[:, 1:].reshape(n_windows, n_cells, len(WINDOW_COLUMNS))
+    ends = points[:, 1:].reshape(n_windows + 1, n_cells, len(POINT_COLUMNS))
+    values = {name: means[:, :, k] for k, name in enumerate(WINDOW_COLUMNS)}
+    # Heights: the mean of each window's two ends stands for the window's mean.
+    values.update({name: 0.5 * (ends[1:, :, k] + ends[:-1, :, k])
+                   for k, name in enumerate(POINT_COLUMNS) if name != "energy_j"})
     return BedMotion(window_steps=int(window_steps), timestep_s=float(timestep_s),
                      period_s=float(period_s), amplitude_m=float(amplitude_m),
-                     energy_j=energy[:, 1:], weight_n=weight, radius_m=float(radius_m), **values)
+                     energy_j=ends[:, :, 0], weight_n=weight, radius_m=float(radius_m), **values)
 
 
 def motion_record(plan: dict, workdir: str | Path, first_cycle: int, weight_n, rest_height_m,

@@ -16,7 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
-from pidpipe.cases import CaseSpec, regime
+from pidpipe.cases import CaseSpec
 from pidpipe.cell.layout import place_packings, side_by_side, write_cells_mesh
 from pidpipe.cell.packing import Packing, cell_from_config, check_packing
 from pidpipe.cell.patch import patch_box
@@ -24,11 +24,12 @@ from pidpipe.config import particle_properties
 from pidpipe.config.inspection import MotionSampling, MovieSettings, motion_sampling
 from pidpipe.liggghts.contact_energy import boundary_elastic_energy
 from pidpipe.liggghts.decks import common_values, render
+from pidpipe.liggghts.inspection import inspection_record
 from pidpipe.liggghts.motion import ENERGY_FILE as MOTION_ENERGY_FILE
 from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
-from pidpipe.liggghts.motion import motion_deck_values, motion_record
+from pidpipe.liggghts.motion import motion_deck_values
 from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
-from pidpipe.liggghts.movie import movie_deck_values, write_case_movie
+from pidpipe.liggghts.movie import movie_deck_values
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
@@ -211,19 +212,8 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m,
                             dissipated_j=cell.dissipated_j.tolist())
-    inspection = {"regime": regime(case.accel_g)}
-    if motion is not None:
-        inspection = motion_record(plan, workdir, transient, [cell["weight_n"] for cell in
-                                                              plan["cells"]],
-                                   [float(np.ptp(p.centres()[:, 2])) for p in packings],
-                                   packings[0].radius_m, motion.windows_per_cycle)
-    if movie is not None:
-        movie_dir = Path(movie_dir) if movie_dir is not None else workdir / "movie"
-        write_case_movie(workdir, movie_dir, cell_from_config(config), plan["layout"],
-                         plan["timestep"].timestep_s, plan["period_s"], plan["amplitude_m"],
-                         plan["movie"]["n_frames"])
-        inspection["movie"] = {"frames": plan["movie"]["n_frames"], "cycles": movie.cycles,
-                               "frames_per_cycle": movie.frames_per_cycle}
+    inspection = inspection_record(plan, workdir, case.accel_g, packings, transient,
+                                   cell_from_config(config), motion, movie, movie_dir)
     flags = (containment_flags(config, series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))

@@ -32,14 +32,15 @@ class BedMotion:
     amplitude_m : float
         Wall displacement amplitude W, m: the wall moves as z = W (cos(2 pi t / T) - 1).
     power_w : ndarray, shape (n_windows, n_cells)
-        Mean power the walls put into each cell's spheres, W.
+        Mean power the walls put into each cell's spheres, W (the forces may be sampled every
+        few steps rather than every step).
     floor_force_n : ndarray, shape (n_windows, n_cells)
         Mean upward force of the floor on each cell's spheres, N (the bed's weight at rest).
     lid_force_n : ndarray, shape (n_windows, n_cells)
         Mean upward force of each cell's spheres on its lid, N (0 unless they touch it).
     centre_m, bottom_m, top_m : ndarray, shape (n_windows, n_cells)
         Mean height above the floor of each cell's centre of mass, lowest and highest sphere
-        centre, m.
+        centre over each window (or the mean of its two ends), m.
     energy_j : ndarray, shape (n_windows + 1, n_cells)
         Each cell's kinetic + rotational + potential energy at the windows' boundaries (the
         first at the start of the run), J.

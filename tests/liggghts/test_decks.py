@@ -127,8 +127,10 @@ def test_shake_deck_with_motion_sampling_and_movie_golden(tmp_path):
                              motion=MotionSampling(20), movie=MovieSettings(5, 2))
     text = plan["deck"].read_text()
     assert "meshes cell store_force yes\n" in text
-    assert " v_power_cell1 v_floor_force_cell1 v_lid_force_cell1 v_centre_cell1" in text
-    assert plan["motion"]["window_steps"] == 2223 // 20
+    assert " v_power_cell1 v_floor_force_cell1 v_lid_force_cell1 file motion_windows.txt" in text
+    assert " v_energy_cell1 v_centre_cell1 v_bottom_cell1 v_top_cell1 file motion_energy.txt" in text
+    # 2223 steps a cycle, 20 windows: 111 steps, rounded down to samples every 10 steps
+    assert plan["motion"]["window_steps"] == 110 and "ave/time 10 11 110" in text
     steps = [int(s) for s in (tmp_path / "movie_steps.txt").read_text().split()]
     cycles = plan["cycles"]
     assert len(steps) == 10 + 1 and steps[0] == (cycles - 2) * 2223 and steps[-1] == cycles * 2223 + 1

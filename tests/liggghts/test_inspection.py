@@ -23,12 +23,14 @@ def _config(transient=5, measured=12):
     return cfg
 
 
-def _check_profile(record):
-    """The phase profile closes: its dissipation over a cycle is the record's E_d, and the floor
-    less the lid carries the bed's weight on average (the side walls' friction the rest)."""
+def _check_profile(record, closure=None):
+    """The phase profile closes: its dissipation over a cycle is the record's E_d (to
+    ``closure``, relative), and the floor less the lid carries the bed's weight on average (the
+    side walls' friction the rest)."""
     profile = record["motion"]["profile"]
-    dissipated = np.mean(profile["dissipation_w"]["mean"]) * profile["period_s"]
-    assert dissipated == pytest.approx(record["ed_cycle_mean_j"], rel=0.05)
+    if closure is not None:
+        dissipated = np.mean(profile["dissipation_w"]["mean"]) * profile["period_s"]
+        assert dissipated == pytest.approx(record["ed_cycle_mean_j"], rel=closure)
     carried = np.mean(profile["floor_force_n"]["mean"]) - np.mean(profile["lid_force_n"]["mean"])
     assert 0.8 < carried / profile["bed_weight_n"] < 1.2
 
@@ -46,9 +48,20 @@ def test_regime_of_half_fill_cases(tmp_path, half_fill_packing, freq_hz, accel_g
     assert record["motion"]["cell_regimes"] == [expected]
     if expected == "period_doubling":
         assert record["ed_lag1_autocorrelation"] < -0.5
+    if expected != "no_lift_off":
         _check_profile(record)
-    if expected == "bouncing_bed":
-        _check_profile(record)
+
+
+@pytest.mark.parametrize("freq_hz", [500, 100])
+def test_phase_profile_sampled_every_step_closes_on_the_energy_balance(tmp_path, half_fill_packing,
+                                                                        freq_hz):
+    """Sampled every step, the window powers are exact: the profile's dissipation over the cycle
+    is the record's E_d to 2 % (the elastic energy held at window ends is not sampled). (The
+    default samples every 10 steps: an estimate, 8 % low at 100 Hz / 5 g in one 12-cycle run.)"""
+    cfg = _config(measured=8)
+    cfg["inspection"]["phase_sample_every_steps"] = 1
+    record = run_case(cfg, CaseSpec(freq_hz, 5, 50), half_fill_packing, tmp_path)
+    _check_profile(record, closure=0.02)
 
 
 def test_a_nearly_full_cell_at_50_hz_and_10_g_hits_the_lid(tmp_path):
