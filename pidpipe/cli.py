@@ -37,6 +37,11 @@ def _parser() -> argparse.ArgumentParser:
     case.add_argument("--record", type=Path, help="write the case record (JSON) here")
     case.add_argument("--engine", choices=("liggghts", "dem"),
                       help="solver that shakes the case (default: the config's engine)")
+    case.add_argument("--movie", action="store_true",
+                      help="also write a ParaView movie of the last cycles (VTK series, movie.pvd; "
+                           "frames and cycles from the config's inspection section)")
+    case.add_argument("--movie-dir", type=Path,
+                      help="folder of the movie (default: <workdir>/<case id>/movie)")
 
     commands.add_parser("check-config", help="validate the config and print the campaign")
 
@@ -99,10 +104,24 @@ def run_case_command(args: argparse.Namespace) -> int:
     cycles = shaking.sampling.transient_cycles_at(case.freq_hz) + shaking.sampling.measured_cycles
     print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
           f"for {cycles} cycles in {shaking.engine} ...", file=sys.stderr, flush=True)
-    record = run_case(shaking, case, packings, args.workdir / case.case_id)
+    movie, movie_dir = None, None
+    if args.movie:
+        from pidpipe.config.inspection import movie_settings
+
+        if shaking.engine != "liggghts":
+            raise PidpipeError("--movie is written from LIGGGHTS' dumps: it needs --engine liggghts")
+        movie = movie_settings(config)
+        movie_dir = args.movie_dir or args.workdir / case.case_id / "movie"
+    record = (run_case(shaking, case, packings, args.workdir / case.case_id, movie=movie,
+                       movie_dir=movie_dir) if movie else
+              run_case(shaking, case, packings, args.workdir / case.case_id))
     if args.record:
         write_record(record, args.record)
     print(format_result(record))
+    if movie is not None:
+        print(f"  movie           : {record['movie']['frames']} frames over the last "
+              f"{record['movie']['cycles']} cycles in {movie_dir / 'movie.pvd'} (open it in ParaView; "
+              "Glyph the spheres by radius_m)")
     return 0
 
 
@@ -120,7 +139,8 @@ def format_result(record: dict) -> str:
         f"  steady state    : transient {fid['transient_cycles']} cycles (configured "
         f"{fid['transient_cycles_configured']}, MSER {record['detected_transient_cycles']}); "
         f"stored-energy drift {100 * record['energy_drift_fraction']:.1f} % of the dissipation; "
-        f"halves p = {record['halves_p_value']:.2g}; regime {record['regime']}",
+        f"halves p = {record['halves_p_value']:.2g}; regime {record['regime']}"
+        + (f" (cells: {_regime_split(record['motion']['cell_regimes'])})" if record.get("motion") else ""),
         f"  fidelity        : dt = {fid['timestep_s']:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
         f"{fid['transient_cycles']} transient + {record['n_cycles']} measured cycles, "
         f"E scale {fid['youngs_modulus_scale']:g}, seed {fid['seed']}",
@@ -133,6 +153,11 @@ def format_result(record: dict) -> str:
                         f"{record['ceq_cell_between_cells_sem_ns_m']:.2g} N s/m (one two-level "
                         f"estimate of both is reported); seeds {', '.join(str(s) for s in fid['seeds'])}")
     return "\n".join(lines)
+
+
+def _regime_split(cell_regimes: list[str]) -> str:
+    """How many cells are in each regime, e.g. ``5 bouncing_bed, 2 irregular``."""
+    return ", ".join(f"{cell_regimes.count(name)} {name}" for name in dict.fromkeys(cell_regimes))
 
 
 def check_config_command(args: argparse.Namespace) -> int:

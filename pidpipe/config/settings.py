@@ -25,6 +25,7 @@ from pidpipe.config.derived import (
     panel_n_cells,
     spheres_at_fill,
 )
+from pidpipe.config.inspection import MotionSampling, motion_sampling
 from pidpipe.errors import ConfigError
 from pidpipe.physics.materials import Material, PairProperties
 
@@ -274,7 +275,8 @@ class ShakeSettings:
     """Everything a case's shaking run reads: the scene's inputs, the sampling and the engine.
 
     Built from the case stage's part of the config (``stage_config(config, "case")``).
-    ``engine`` is ``liggghts`` (the reference) or ``dem`` (the compiled in-repo DEM).
+    ``engine`` is ``liggghts`` (the reference) or ``dem`` (the compiled in-repo DEM); ``motion``
+    how finely a LIGGGHTS run samples the bed's motion within the cycle (None: not at all).
     """
 
     geometry: Geometry
@@ -283,6 +285,7 @@ class ShakeSettings:
     sampling: Sampling
     coupon_n_cells: int
     engine: str = "liggghts"
+    motion: MotionSampling | None = None
 
     @classmethod
     def from_config(cls, config: dict) -> "ShakeSettings":
@@ -290,7 +293,7 @@ class ShakeSettings:
         return cls(Geometry.from_config(config), Materials.from_config(config),
                    Fidelity.from_config(config), Sampling.from_config(config),
                    int(config["geometry"]["coupon_n_cells"]),
-                   str(config.get("engine", "liggghts")))
+                   str(config.get("engine", "liggghts")), motion_sampling(config))
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
                      "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction",
                      "target_relative_sem", "max_measured_cycles", "cells_per_run",
                      "max_cells_per_case", "max_case_cpu_s", "settle_time_s", "seed"],
+        "inspection": ["phase_windows_per_cycle", "phase_sample_every_steps"],
     },
 }
 

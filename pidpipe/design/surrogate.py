@@ -266,7 +266,7 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     model = _build_model(method, points, y, domain, smoothing, source)
     return Surrogate(
         method=method, target=target,
-        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN)
+        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN, "regime")
                        if c in used.columns]].reset_index(drop=True),
         domain=domain, offset_ns_m=float(offset),
         excluded=_describe_rows(excluded), holes=holes,

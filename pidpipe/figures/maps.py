@@ -180,7 +180,7 @@ def _figure_legend(fig: Figure, axes) -> None:
             handles.setdefault(label, handle)
     if handles:
         fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
-                   ncols=len(handles), frameon=False)
+                   ncols=min(len(handles), 4), frameon=False)
 
 
 def _frame(ax, surrogate: Surrogate, axes_vars: tuple[str, str]) -> None:
@@ -225,7 +225,19 @@ def _mark_points(ax, surrogate: Surrogate, fixed: str, level: float,
     if np.any(~on):
         ax.scatter(x[~on], y[~on], s=18, facecolors="white", edgecolors="black", linewidths=0.8,
                    clip_on=False, zorder=3, label="DEM points off the slice (projected)")
-    if np.any(on):
+    if np.any(on) and "regime" in rows.columns:
+        regimes = rows["regime"].astype("string").fillna("").to_numpy()
+        for name, marker in REGIME_MARKERS.items():
+            mine = on & (regimes == name)
+            if np.any(mine):
+                ax.scatter(x[mine], y[mine], s=44, marker=marker, color="black",
+                           edgecolors="white", linewidths=0.8, clip_on=False, zorder=4,
+                           label=f"DEM on the slice: {name.replace('_', ' ')}")
+        unknown = on & ~np.isin(regimes, list(REGIME_MARKERS))
+        if np.any(unknown):
+            ax.scatter(x[unknown], y[unknown], s=34, color="black", edgecolors="white",
+                       linewidths=0.8, clip_on=False, zorder=4, label="DEM points on the slice")
+    elif np.any(on):
         ax.scatter(x[on], y[on], s=34, color="black", edgecolors="white", linewidths=0.8,
                    clip_on=False, zorder=4, label="DEM points on the slice")
     uncertain = _uncertain_rows(rows)
@@ -242,6 +254,12 @@ def _mark_points(ax, surrogate: Surrogate, fixed: str, level: float,
         ax.scatter([r[axes_vars[0]] for r in left_out], [r[axes_vars[1]] for r in left_out],
                    marker="x", s=44, color="red", clip_on=False, zorder=5,
                    label="DEM cases left out of the fit (status not ok; projected)")
+
+
+#: Marker of each regime (:mod:`pidpipe.measurement.regime`; ``impacting`` is the regime decided
+#: from G alone when the motion was not sampled).
+REGIME_MARKERS = {"no_lift_off": "v", "bouncing_bed": "o", "period_doubling": "D",
+                  "lid_impacts": "^", "fluidised": "*", "irregular": "s", "impacting": "P"}
 
 
 def _uncertain_rows(rows) -> np.ndarray:

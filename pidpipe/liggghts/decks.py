@@ -141,4 +141,5 @@ def common_values(scene: CellScene, positions_m: np.ndarray, timestep_s: float, 
         "positions_m": positions.tolist(),
         "mesh_file": mesh_file,
         "thermo_every": thermo_every,
+        "store_wall_force": False,
     }

@@ -16,14 +16,21 @@ from typing import Sequence
 
 import numpy as np
 
-from pidpipe.cases import CaseSpec, regime
+from pidpipe.cases import CaseSpec
 from pidpipe.cell.layout import place_packings, side_by_side, write_cells_mesh
 from pidpipe.cell.packing import Packing, check_packing
 from pidpipe.cell.patch import patch_box
 from pidpipe.cell.scene import CellScene
+from pidpipe.config.inspection import MovieSettings
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.liggghts.contact_energy import boundary_elastic_energy
 from pidpipe.liggghts.decks import common_values, render
+from pidpipe.liggghts.inspection import inspection_record
+from pidpipe.liggghts.motion import ENERGY_FILE as MOTION_ENERGY_FILE
+from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
+from pidpipe.liggghts.motion import motion_deck_values
+from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
+from pidpipe.liggghts.movie import movie_deck_values
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
@@ -51,7 +58,8 @@ the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
 
 
 def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
-                      packings: Packing | Sequence[Packing], workdir: Path) -> dict:
+                      packings: Packing | Sequence[Packing], workdir: Path,
+                      movie: MovieSettings | None = None) -> dict:
     """Write the cells' wall mesh and the shake deck of a case; return the run's plan.
 
     Parameters
@@ -61,14 +69,19 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
     case : CaseSpec
     packings : Packing or sequence of Packing
         One packing per cell; several cells are laid out side by side
-        (:mod:`pidpipe.replicate_cells`).
+        (:mod:`pidpipe.cell.layout`).
     workdir : Path
+    movie : MovieSettings, optional
+        Dump a movie (:mod:`pidpipe.liggghts.movie`); off if None. The bed's motion within the
+        cycle is sampled as ``settings.motion`` says (:mod:`pidpipe.liggghts.motion`; off if
+        None). With both off the deck is the plain shake deck.
 
     Returns
     -------
     dict
         ``deck``, ``period_s``, ``steps_per_cycle``, ``cycles``, ``timestep`` (a TimestepPlan),
-        ``amplitude_m``, ``layout`` (a CellLayout), ``scene`` (the CellScene).
+        ``amplitude_m``, ``layout`` (a CellLayout), ``scene`` (the CellScene), ``cells``,
+        ``motion`` and ``movie`` (the deck's values of each, or None).
     """
     packings = as_packing_list(packings)
     scene = CellScene.of(settings)
@@ -104,11 +117,18 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=settings.fidelity.timestep_rayleigh_fraction * (1.0 + 1e-6),
                   hertz_fraction_limit=HERTZ_FRACTION_LIMIT)
+    motion = settings.motion
+    values.update(
+        motion=None if motion is None else motion_deck_values(
+            motion, plan.steps_per_cycle, cell, radius, len(cells)),
+        movie=None if movie is None else movie_deck_values(
+            movie, plan.steps_per_cycle, cycles, workdir),
+        store_wall_force=motion is not None)
     deck = workdir / "shake.lmp"
     deck.write_text(render("shake.lmp.j2", values), encoding="utf-8")
     return {"deck": deck, "period_s": period, "cycles": cycles, "timestep": plan,
             "steps_per_cycle": plan.steps_per_cycle, "amplitude_m": amplitude, "layout": layout,
-            "scene": scene}
+            "scene": scene, "cells": cells, "motion": values["motion"], "movie": values["movie"]}
 
 
 
@@ -137,7 +157,8 @@ def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
 
 
 def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
-             workdir: str | Path) -> dict:
+             workdir: str | Path, movie: MovieSettings | None = None,
+             movie_dir: str | Path | None = None) -> dict:
     """Shake one case in LIGGGHTS and return its record.
 
     Parameters
@@ -150,6 +171,10 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         by side in one run (:mod:`pidpipe.replicate_cells`), whose mean cell the record reports.
     workdir : path
         The case's own folder (deck, meshes, LIGGGHTS output and screen).
+    movie : MovieSettings, optional
+        Also write a ParaView movie of the run's last cycles into ``movie_dir``
+        (default ``workdir/movie``); off if None.
+    movie_dir : path, optional
 
     Returns
     -------
@@ -162,9 +187,10 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     packings = as_packing_list(packings)
     for index, packing in enumerate(packings):
         check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
-    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE):
+    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
+                  MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_shake_deck(settings, case, packings, workdir)
+    plan = render_shake_deck(settings, case, packings, workdir, movie=movie)
     engine = run_deck(plan["deck"], case.case_id)
     cells, series, ledger_mismatch = read_cell_series(plan["scene"], plan, workdir)
     fidelity, sampling = settings.fidelity, settings.sampling
@@ -178,6 +204,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m,
                             dissipated_j=cell.dissipated_j.tolist())
+    inspection = inspection_record(plan, workdir, case.accel_g, packings, transient,
+                                   plan["scene"].cell, settings.motion, movie, movie_dir)
     flags = (containment_flags(plan["scene"], series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))
@@ -194,7 +222,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         "flags": flags,
         **summary,
         **steady.as_record(),
-        "regime": regime(case.accel_g),
+        **inspection,
         "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()) / len(cells),
         "ledger_mismatch_of_gross_work": ledger_mismatch,
         "cycles": series.as_record(),

@@ -11,10 +11,12 @@ still written. A missing LIGGGHTS binary or a packing that does not fit fails th
 
 from __future__ import annotations
 
+import functools
 import logging
 from pathlib import Path
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.inspection import MovieSettings
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, ParseError, PidpipeError
 
@@ -79,7 +81,8 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
 
 
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
-                  workdir: str, log_path: str, packing_pool: str | None = None) -> dict:
+                  workdir: str, log_path: str, packing_pool: str | None = None,
+                  movie: dict | None = None) -> dict:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -102,6 +105,9 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     packing_pool : path, optional
         Where the further packings of a case with a target are poured and shared
         (:func:`pool_packings`); None: the case keeps its pilot's cells.
+    movie : dict, optional
+        ``frames_per_cycle``, ``cycles`` and ``directory``: also write the run's ParaView movie
+        there (``inspection.movie_cases``); empty or None: no movie.
 
     Returns
     -------
@@ -131,10 +137,18 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         indices = [extra_packing_index(case.replicate, cell) for cell in range(first, first + count)]
         return pool_packings(PourSettings.from_config(config), case.fill_pct, indices, packing_pool)
 
+    shake = run_case
+    if movie and settings.engine == "liggghts":
+        shake = functools.partial(run_case, movie=MovieSettings(int(movie["frames_per_cycle"]),
+                                                               int(movie["cycles"])),
+                                  movie_dir=movie["directory"])
+    elif movie:
+        logger.warning("case %s: no movie: the movie is written from LIGGGHTS' dumps, and this "
+                       "campaign's engine is %s", case_id, settings.engine)
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(settings, case, packings, workdir, run=run_case,
+            record = run_to_target(settings, case, packings, workdir, run=shake,
                                    new_packings=new_packings if packing_pool else None,
                                    cost_model=load_cost_model(settings.engine),
                                    steps_per_cycle=plan.steps_per_cycle,

@@ -81,3 +81,20 @@ def plot_optimum_spread_figure(results_json: str, bootstrap_csv: str, png: str) 
     note = "" if len(draws) else "no bootstrap (no SEMs in the table, or draws = 0)"
     plot_optimum_spread(results, draws, stem=Path(png).with_suffix(""), note=note)
     logger.info("optimum spread figure: %s (and PDF), %d draws", png, len(draws))
+
+
+def plot_case_phase(record_path: str, png: str) -> None:
+    """The phase-resolved figure of one case record (:mod:`pidpipe.figures.phase`), PNG and PDF.
+
+    Parameters
+    ----------
+    record_path : path
+        The case record (JSON) with its ``motion``.
+    png : path
+        The PNG file; the PDF goes next to it, with the same stem.
+    """
+    from pidpipe.design.records import read_record
+    from pidpipe.figures.phase import plot_phase_profile
+
+    plot_phase_profile(read_record(record_path), stem=Path(png).with_suffix(""))
+    logger.info("phase-resolved figure: %s (and PDF)", png)

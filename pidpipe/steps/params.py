@@ -40,6 +40,15 @@ def workflow_config(raw: dict) -> dict:
     return config
 
 
+def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
+    """The case ids of ``inspection.<key>`` (``movie_cases``, ``phase_figure_cases``) that are
+    cases of the campaign, and those that are not (ignored, so that a grid cut down for a quick
+    run keeps working; the workflow prints them)."""
+    known = {case.case_id for case in campaign_cases(config)}
+    listed = config["inspection"][key]
+    return ([c for c in listed if c in known], [c for c in listed if c not in known])
+
+
 def campaign_cases(config: dict) -> list[CaseSpec]:
     """Every case of the campaign: the grid times ``grid.replicates`` runs."""
     return grid_cases(config, replicates=int(config["grid"].get("replicates", 1)))

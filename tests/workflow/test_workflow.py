@@ -183,6 +183,27 @@ def test_report_collects_figures_and_tables(campaign_dir):
         assert name in html
 
 
+def test_regimes_gallery_and_movie_of_the_chosen_cases(campaign_dir, config):
+    """Every row's regime comes from its cells' motion; the chosen cases have their phase
+    figure (in the report) and their movie."""
+    from pidpipe.cell.vtk_series import read_pvd
+    from pidpipe.measurement.regime import REGIMES
+
+    table = pd.read_csv(campaign_dir / "results" / "ceq_table.csv")
+    done = table[table["status"].isin(["ok", "flagged"])]
+    assert done["regime"].isin(REGIMES).all(), done[["case_id", "regime"]]
+    assert done["regime_cells"].str.contains(":").all()
+    html = (campaign_dir / "report.html").read_text(errors="replace")
+    for case_id in config["inspection"]["phase_figure_cases"]:
+        png = campaign_dir / "results" / "figures" / "phase" / f"{case_id}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+        assert f"{case_id}.png" in html
+    for case_id in config["inspection"]["movie_cases"]:
+        entries = read_pvd(campaign_dir / "results" / "movies" / case_id / "movie.pvd")
+        frames = config["inspection"]["movie_frames_per_cycle"] * config["inspection"]["movie_cycles"]
+        assert len(entries) == 2 * frames and all(path.is_file() for _, _, path in entries)
+
+
 def test_second_run_has_nothing_to_do(campaign_dir):
     run = snakemake(campaign_dir, "--dry-run")
     assert run.returncode == 0, run.stdout[-3000:]

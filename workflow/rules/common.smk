@@ -5,7 +5,7 @@ import sys
 from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
-                                  environment_params, map_uncertainty_params,
+                                  environment_params, inspected_cases, map_uncertainty_params,
                                   optimisation_params)
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
@@ -16,6 +16,12 @@ from pidpipe.errors import ConfigError
 
 CASES = campaign_cases(config)
 PACKING_IDS = campaign_packing_ids(config)
+PHASE_FIGURE_CASES, _ignored_figures = inspected_cases(config, "phase_figure_cases")
+MOVIE_CASES, _ignored_movies = inspected_cases(config, "movie_cases")
+for _key, _ignored in (("phase_figure_cases", _ignored_figures), ("movie_cases", _ignored_movies)):
+    if _ignored:
+        print(f"pidpipe: inspection.{_key}: not cases of this campaign, ignored: "
+              + ", ".join(_ignored), file=sys.stderr)
 
 # Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
 CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
@@ -122,13 +128,30 @@ def get_final_targets():
         "results/figures/optimum_spread.png",
     ]
     if config["optimisation"]["external_ceq_table"] is None:
-        targets = get_case_records() + ["results/ceq_table.csv"] + targets
+        targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets
 
 
 def get_dem_check_records():
     """The compiled DEM's record of every case of the campaign (`snakemake validate`)."""
     return [f"results/validation/dem/{case_id}.json" for case_id in get_case_ids()]
+
+
+def get_phase_figures():
+    """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
+    if config["inspection"]["phase_windows_per_cycle"] == 0:
+        return []
+    return [f"results/figures/phase/{case_id}.png" for case_id in PHASE_FIGURE_CASES]
+
+
+def get_case_movie(wildcards):
+    """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
+    case_id = get_case_id(wildcards)
+    if case_id not in MOVIE_CASES:
+        return {}
+    return {"frames_per_cycle": config["inspection"]["movie_frames_per_cycle"],
+            "cycles": config["inspection"]["movie_cycles"],
+            "directory": f"results/movies/{case_id}"}
 
 
 def get_validation_cases():

@@ -59,8 +59,25 @@ rule plot_optimum_spread:
         "../scripts/plot_optimum_spread.py"
 
 
+rule plot_phase:
+    input:
+        record="results/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.json",
+    output:
+        png=report(
+            "results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.png",
+            caption="../report/phase.rst",
+            category="4. Inside the cases",
+        ),
+        pdf="results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.pdf",
+    log:
+        "logs/plot_phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
+    script:
+        "../scripts/plot_phase.py"
+
+
 rule figures:
     input:
         rules.plot_surrogate.output,
         rules.plot_convergence.output,
         rules.plot_optimum_spread.output,
+        get_phase_figures(),

@@ -13,6 +13,7 @@ rule simulate_case:
         case_id=get_case_id,
         workdir="results/work/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}",
         packing_pool="results/packings/pool",
+        movie=get_case_movie,
     log:
         "logs/simulate_case/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
     benchmark:

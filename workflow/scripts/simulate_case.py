@@ -13,4 +13,5 @@ run_step(
     workdir=snakemake.params.workdir,
     log_path=snakemake.log[0],
     packing_pool=snakemake.params.packing_pool,
+    movie=snakemake.params.movie,
 )
