@@ -6,6 +6,10 @@ one of these values changes: an edit elsewhere in the config reruns nothing.
 
 from __future__ import annotations
 
+#: ``fidelity`` keys of the pours: the case stage reads them too, to pour the further packings
+#: that a case's target SEM asks for.
+POURING_KEYS: tuple[str, ...] = ("settle_time_s", "seed")
+
 #: Config keys each stage depends on: top-level key -> list of sub-keys (None: all of it).
 #: ``materials`` and ``pairs`` are cut down to the particle and wall materials.
 _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {

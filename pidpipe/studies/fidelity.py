@@ -190,7 +190,7 @@ def variant_config(config: dict, variant: Variant) -> dict:
         Naming the variant's key: an unknown fidelity key, a value out of bounds, or a setting
         the shaking run does not depend on.
     """
-    from pidpipe.config.stages import stage_config
+    from pidpipe.config.stages import POURING_KEYS, stage_config
 
     where = _where(variant, config)
     merged = copy.deepcopy(config)
@@ -200,7 +200,9 @@ def variant_config(config: dict, variant: Variant) -> dict:
     except ConfigError as exc:
         raise ConfigError(f"config key {where} (setting {variant.name!r}) is not allowed, after "
                           f"merging into fidelity: {exc}") from None
-    shaking = set(stage_config(merged, "case")["fidelity"])
+    # The case stage also reads the pouring keys (a case with a target pours further packings),
+    # but the study shakes the campaign's own packings: those keys may not change here.
+    shaking = set(stage_config(merged, "case")["fidelity"]) - set(POURING_KEYS)
     for key in sorted(variant.overrides):
         if key not in shaking:
             raise ConfigError(f"config key {where}.{key} is not allowed: the study shakes the "
