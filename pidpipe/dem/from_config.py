@@ -1,4 +1,4 @@
-"""The NumPy DEM's scene from a validated pidpipe config (the same inputs as the LIGGGHTS deck)."""
+"""The DEM's scene from a validated pidpipe config (the same inputs as the LIGGGHTS deck)."""
 
 from __future__ import annotations
 
