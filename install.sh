@@ -3,14 +3,39 @@
 #   - LIGGGHTS 3.8 from Debian's packages (without the recommended ParaView),
 #   - a virtual environment .venv with pidpipe and its dependencies from PyPI.
 # Safe to run again: it skips what is already there. Run as root, or with sudo available.
+# Quiet by default: a few progress lines; the package managers' full output is kept in a log
+# and printed only if a step fails. `bash install.sh --verbose` (or PIDPIPE_VERBOSE=1) shows it all.
 set -euo pipefail
 cd "$(dirname "$0")"
+
+verbose="${PIDPIPE_VERBOSE:-0}"
+for argument in "$@"; do
+    case "$argument" in
+        -v|--verbose) verbose=1 ;;
+        -h|--help) sed -n '2,7p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        *) echo "install.sh: unknown option $argument (use --verbose or --help)" >&2; exit 2 ;;
+    esac
+done
+
+log="$(mktemp "${TMPDIR:-/tmp}/pidpipe-install.XXXXXX.log")"
+trap 'rm -f "$log"' EXIT
+
+# Run a command; quiet: its output goes to the log, which is printed if it fails.
+step() {
+    if [ "$verbose" = 1 ]; then "$@"; return; fi
+    if ! "$@" >>"$log" 2>&1; then
+        echo "install.sh: failed: $*" >&2
+        echo "install.sh: its output follows (also rerun with --verbose):" >&2
+        cat "$log" >&2
+        exit 1
+    fi
+}
 
 as_root() { if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi; }
 apt_updated=0
 apt_install() {
-    if [ "$apt_updated" -eq 0 ]; then as_root apt-get update -qq; apt_updated=1; fi
-    DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -qq --no-install-recommends "$@"
+    if [ "$apt_updated" -eq 0 ]; then step as_root apt-get update -qq; apt_updated=1; fi
+    step as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@"
 }
 
 if ! command -v liggghts >/dev/null 2>&1 && [ -z "${PIDPIPE_LIGGGHTS:-}" ]; then
@@ -21,18 +46,18 @@ fi
 PYTHON="${PYTHON:-python3}"
 if [ ! -x .venv/bin/python ]; then
     echo "install.sh: creating the virtual environment .venv ..."
-    if ! "$PYTHON" -m venv .venv 2>/dev/null; then
+    if ! "$PYTHON" -m venv .venv >>"$log" 2>&1; then
         rm -rf .venv
         apt_install python3-venv
-        "$PYTHON" -m venv .venv
+        step "$PYTHON" -m venv .venv
     fi
 fi
 
 stamp=.venv/.pidpipe-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
-    echo "install.sh: installing pidpipe and its dependencies into .venv ..."
-    .venv/bin/python -m pip install -q --upgrade pip
-    .venv/bin/python -m pip install -q -e '.[test]'
+    echo "install.sh: installing pidpipe and its dependencies into .venv (about a minute) ..."
+    step .venv/bin/python -m pip install -q --upgrade pip
+    step .venv/bin/python -m pip install -q -e '.[test]'
     touch "$stamp"
 fi
 echo "install.sh: ready: $(command -v liggghts || echo "${PIDPIPE_LIGGGHTS:-}"), .venv"

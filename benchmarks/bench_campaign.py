@@ -1,10 +1,14 @@
-"""Wall time of a whole campaign on this machine, with the split by stage (issue 3).
+"""Wall and CPU time of a whole campaign on this machine, with the split by stage (issues 3, 13).
 
 Runs ``snakemake --cores 2`` on a config (default: the repository's config.yaml, the 60-case
 reference campaign) in a scratch copy of the workflow, then sums the per-job benchmark files
-and the case records by rule.
+and the case records: wall and engine CPU time per frequency (every run a case made, its
+target's included), every case's relative SEM, how many cases reached their target (and how
+many were not chased: C_eq not resolved from zero), the cells and cycles they ended with, and
+the pours (the grid's and those poured on demand into the shared pool).
 
 Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
+         [--set fidelity.target_relative_sem=0.1 --set grid.freq_hz=[500,1000] ...] [--keep DIR]
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import time
 from pathlib import Path
 
 import pandas as pd
+import yaml
 from _record import append
 
 REPO = Path(__file__).resolve().parent.parent
@@ -28,13 +33,24 @@ def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("config", nargs="?", default=str(REPO / "config.yaml"))
     parser.add_argument("--cores", type=int, default=2)
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
+                        help="override one config value (repeatable)")
+    parser.add_argument("--keep", metavar="DIR", help="copy the case records here")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         work = Path(scratch)
         for item in ("Snakefile", "workflow", "templates"):
             source = REPO / item
             (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
-        shutil.copy(args.config, work / "config.yaml")
+        config = yaml.safe_load(Path(args.config).read_text())
+        for override in args.set:
+            path, value = override.split("=", 1)
+            if "." in path:
+                section, key = path.split(".", 1)
+                config.setdefault(section, {})[key] = yaml.safe_load(value)
+            else:
+                config[path] = yaml.safe_load(value)
+        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
         start = time.perf_counter()
         done = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "--cores", str(args.cores),
                                "--quiet", "rules", "all"], cwd=work, check=False, stdout=subprocess.DEVNULL)
@@ -48,19 +64,51 @@ def main() -> None:
                          "job": tsv.stem, "s": float(frame["s"].iloc[0])})
         jobs = pd.DataFrame(rows)
         records = [json.loads(p.read_text()) for p in (work / "results" / "cases").glob("*.json")]
-        cases = pd.DataFrame({"freq_hz": [r["freq_hz"] for r in records],
-                              "s": [r.get("wall_time_s", float("nan")) for r in records],
-                              "status": [r["status"] for r in records]})
-    lines = [f"Campaign {Path(args.config).name}: {len(records)} cases, wall time {wall:.0f} s on "
-             f"{args.cores} cores; case status counts: {cases['status'].value_counts().to_dict()}", "",
+        pool = len(list((work / "results" / "packings" / "pool").glob("*.json")))
+        if args.keep:
+            shutil.copytree(work / "results" / "cases", args.keep, dirs_exist_ok=True)
+        cases = pd.DataFrame([case_row(r) for r in records])
+    counted = cases[cases["status"] != "failed"]
+    target = config.get("fidelity", {}).get("target_relative_sem", "schema default")
+    lines = [f"Campaign {Path(args.config).name} {' '.join(args.set)}: {len(records)} cases, wall time "
+             f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
+             f"case status counts: {cases['status'].value_counts().to_dict()}; target "
+             f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
+             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero); relative SEM "
+             f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
+             f"{pool} packings poured on demand into the pool", "",
              "| stage (rule) | jobs | summed job time s |", "|---|---|---|"]
     for rule, group in jobs.groupby("rule"):
         lines.append(f"| {rule} | {len(group)} | {group['s'].sum():.1f} |")
-    lines += ["", "| frequency Hz | cases | summed case time s | mean s per case |", "|---|---|---|---|"]
-    for freq, group in cases.groupby("freq_hz"):
-        lines.append(f"| {freq:g} | {len(group)} | {group['s'].sum():.1f} | {group['s'].mean():.1f} |")
+    lines += ["", "| frequency Hz | cases | wall s (summed) | engine CPU s (summed) | mean CPU s per case | "
+              "at target | median rel. SEM | cells (min-max) | measured cycles (min-max) |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for freq, group in counted.groupby("freq_hz"):
+        lines.append(f"| {freq:g} | {len(group)} | {group['wall_s'].sum():.1f} | {group['cpu_s'].sum():.1f} | "
+                     f"{group['cpu_s'].mean():.1f} | {int(group['reached'].sum())} | "
+                     f"{group['rel_sem'].median():.1%} | {group['cells'].min()}-{group['cells'].max()} | "
+                     f"{group['cycles'].min()}-{group['cycles'].max()} |")
+    lines += ["", "Every case: " + "; ".join(
+        f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached else ' (missed)'}"
+        for row in counted.sort_values("case_id").itertuples())]
     lines.append(f"\nSummed job time / (wall x cores) = {jobs['s'].sum() / (wall * args.cores):.2f} (core use).")
     append("Whole campaign", f"python benchmarks/bench_campaign.py {Path(args.config).name}", lines)
+
+
+def case_row(record: dict) -> dict:
+    """One case's figures: wall and engine CPU over every run it made, relative SEM, target."""
+    target = record.get("target") or {}
+    value, sem = record.get("ceq_cell_ns_m", float("nan")), record.get("ceq_cell_sem_ns_m", float("nan"))
+    engine = record.get("engine") or {}
+    return {"case_id": record["case_id"], "freq_hz": record["freq_hz"], "status": record["status"],
+            "wall_s": target.get("wall_time_s", record.get("wall_time_s", float("nan"))),
+            "cpu_s": target.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))),
+            "rel_sem": abs(sem / value) if value else float("nan"),
+            "reached": bool(target.get("reached", False)),
+            "not_chased": bool(target) and len(target.get("runs", [])) == 1 and not target.get("reached")
+                          and "not_resolved" in record.get("flags", []),
+            "cells": int(target.get("cells", record.get("fidelity", {}).get("cells_per_run", 1))),
+            "cycles": int(target.get("measured_cycles", record.get("n_cycles", 0)))}
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from _record import append
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
 
@@ -27,11 +28,11 @@ def main() -> None:
     lines = ["| case | steps | pipeline wall s | LIGGGHTS process s | LIGGGHTS loop s | steps/s (loop) | pipeline / process | pipeline / loop |",
              "|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
-        packing = pour(config, 50, 0, Path(scratch) / "pour")
+        packing = pour(PourSettings.from_config(config), 50, 0, Path(scratch) / "pour")
         for freq in (500.0, 50.0):
             case = CaseSpec(freq, 5.0, 50.0)
             start = time.perf_counter()
-            record = run_case(config, case, packing, Path(scratch) / case.case_id)
+            record = run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / case.case_id)
             pipeline = time.perf_counter() - start
             engine = record["engine"]
             lines.append(

@@ -10,6 +10,17 @@ combined standard errors (the cells' trajectories part by chaos: a check that a 
 standard error covers run-to-run noise).
 
 Run: .venv/bin/python benchmarks/bench_cells.py [k] [freq_hz ...]   (default 7 cells, 100 500 1000 Hz)
+
+With ``--cost`` it measures instead what a run of k cells costs, for k = 1, 2, 4, 7, 14, 24
+(:data:`COST_CELLS`; a run holds at most 24 cells, :data:`pidpipe.cell.layout.MAX_CELLS`, so 28
+are two runs) at 50 % fill and 1000 and 500 Hz, k = 1, 7 at 90 % and k = 1, 7, 24 at 25 % fill
+and 1000 Hz (so that the costs per cell and per sphere are told apart), with the default fidelity, plus each pour's CPU time; fits the cost model of
+:mod:`pidpipe.measurement.cost_model` to it and writes it, with the machine and the date, to
+``pidpipe/measurement/cost_models.json`` (entry ``liggghts``), which the sequential allocation
+reads (:mod:`pidpipe.measurement.allocation`).
+
+Run: .venv/bin/python benchmarks/bench_cells.py --cost [packings folder]   (packings are kept
+there and reused; default a temporary folder)
 """
 
 from __future__ import annotations
@@ -24,13 +35,67 @@ from _record import append
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.pour import replicate_packings
 from pidpipe.liggghts.shake import run_case
 
 ACCEL_G, FILL_PCT = 5.0, 50.0
 
 
+COST_CELLS = (1, 2, 4, 7, 14, 24)
+"""Cells per run at which the cost of a run is measured (``--cost``)."""
+
+COST_RUNS = ((50.0, 1000.0, COST_CELLS), (50.0, 500.0, COST_CELLS), (90.0, 1000.0, (1, 7)),
+             (25.0, 1000.0, (1, 7, 24)))
+"""(fill %, frequency Hz, cells per run) of the cost measurement, at 5 g."""
+
+
+def measure_cost() -> None:
+    """Measure the CPU time of runs of k cells and of pours; fit and store the LIGGGHTS cost model."""
+    from _record import machine
+
+    from pidpipe.cell.scene import CellScene
+    from pidpipe.measurement.cost_model import fit_cost_model, store_cost_model
+
+    config = load_config()
+    points, pours = [], []
+    lines = ["| fill % | spheres/cell | f Hz | cells k | steps | CPU s | us per step | model s |",
+             "|---|---|---|---|---|---|---|---|"]
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(sys.argv[2]) if len(sys.argv) > 2 else Path(scratch) / "packings"
+        for fill, freq, cell_counts in COST_RUNS:
+            packings, pour_cpu = replicate_packings(PourSettings.from_config(config), fill, max(cell_counts), folder, workers=1)
+            if fill not in {p["fill_pct"] for p in pours}:
+                pours += [{"fill_pct": fill, "n_spheres": packings[0].n_spheres, "cpu_s": cpu}
+                          for cpu in pour_cpu.values()]
+            case = CaseSpec(freq, ACCEL_G, fill)
+            sampling = ShakeSettings.from_config(config).sampling
+            steps = (CellScene.from_config(config).timestep(freq).steps_per_cycle
+                     * (sampling.transient_cycles_at(freq) + sampling.measured_cycles))
+            for k in cell_counts:
+                record = run_case(ShakeSettings.from_config(config), case, packings[:k], Path(scratch) / f"r{fill:g}_f{freq:g}_k{k}")
+                points.append({"fill_pct": fill, "n_spheres": packings[0].n_spheres, "freq_hz": freq,
+                               "cells": k, "steps": steps,
+                               "cpu_s": record["engine"]["liggghts_cpu_time_s"]})
+                print(points[-1], flush=True)
+    model = fit_cost_model(points, pours, engine="liggghts", machine=machine(),
+                           command="python benchmarks/bench_cells.py --cost")
+    path = store_cost_model(model)
+    for p in points:
+        lines.append(f"| {p['fill_pct']:g} | {p['n_spheres']} | {p['freq_hz']:g} | {p['cells']} | "
+                     f"{p['steps']} | {p['cpu_s']:.2f} | {1e6 * p['cpu_s'] / p['steps']:.1f} | "
+                     f"{model.run_cpu_s(p['cells'], p['n_spheres'], p['steps']):.2f} |")
+    lines += ["", f"Model (written to {path.name}): {model.describe()}",
+              f"Pours: {len(pours)}, CPU s each {np.mean([p['cpu_s'] for p in pours]):.2f} mean, "
+              f"{np.min([p['cpu_s'] for p in pours]):.2f}-{np.max([p['cpu_s'] for p in pours]):.2f}."]
+    append("Cost of a run of k cells (the allocation's cost model, LIGGGHTS)",
+           "python benchmarks/bench_cells.py --cost", lines)
+
+
 def main() -> None:
+    if sys.argv[1:2] == ["--cost"]:
+        measure_cost()
+        return
     cells = int(sys.argv[1]) if len(sys.argv) > 1 else 7
     freqs = [float(f) for f in sys.argv[2:]] or [100.0, 500.0, 1000.0]
     config = load_config()
@@ -39,11 +104,11 @@ def main() -> None:
              "moved cells vs alone: max abs z |",
              "|---|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
-        packings, _ = replicate_packings(config, FILL_PCT, cells, Path(scratch) / "packings")
+        packings, _ = replicate_packings(PourSettings.from_config(config), FILL_PCT, cells, Path(scratch) / "packings")
         for freq in freqs:
             case = CaseSpec(freq, ACCEL_G, FILL_PCT)
-            together = run_case(config, case, packings, Path(scratch) / f"together_{freq:g}")
-            alone = [run_case(config, case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
+            together = run_case(ShakeSettings.from_config(config), case, packings, Path(scratch) / f"together_{freq:g}")
+            alone = [run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
                      for k, packing in enumerate(packings)]
             cpu_alone = sum(r["engine"]["liggghts_cpu_time_s"] for r in alone)
             cpu_together = together["engine"]["liggghts_cpu_time_s"]

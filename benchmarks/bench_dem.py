@@ -29,9 +29,11 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.dem import run_cycles, start
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.dem.from_scene import dem_scene
 
 FREQ_HZ, ACCEL_G = 500.0, 5.0
 FILLS = {11: 50.0, 19: 90.0}
@@ -42,9 +44,10 @@ import time, numpy as np
 began = time.perf_counter()
 from pidpipe.config import load_config
 from pidpipe.dem import advance, start
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.dem.from_scene import dem_scene
+from pidpipe.cell.scene import CellScene
 imported = time.perf_counter()
-scene = scene_from_config(load_config(), 500.0, 5.0)
+scene = dem_scene(CellScene.from_config(load_config()), 500.0, 5.0)
 positions = np.loadtxt(r"{packing}", delimiter=",")
 scene, state, ws = start(scene, positions)
 advance(scene, state, ws, 1)
@@ -68,7 +71,7 @@ def compile_times(packing_csv: Path) -> dict:
 
 def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int) -> dict:
     """Compiled DEM: wall and CPU time of ``cycles`` cycles after one warm-up cycle."""
-    scene = scene_from_config(config, FREQ_HZ, [ACCEL_G] * n_cells)
+    scene = dem_scene(CellScene.from_config(config), FREQ_HZ, [ACCEL_G] * n_cells)
     scene, state, ws = start(scene, np.stack([positions] * n_cells))
     run_cycles(scene, state, ws, 1)
     wall, cpu = time.perf_counter(), time.process_time()
@@ -98,7 +101,8 @@ def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Pat
     steps = particle_steps = seconds = cpu_seconds = 0
     for run in range(runs):
         cells = n_cells // runs
-        record = run_case(config, CaseSpec(FREQ_HZ, ACCEL_G, packing.fill_pct),
+        record = run_case(ShakeSettings.from_config(config),
+                          CaseSpec(FREQ_HZ, ACCEL_G, packing.fill_pct),
                           [packing] * cells, workdir / f"run{run}")
         engine = record["engine"]
         steps = engine["steps"]
@@ -127,7 +131,8 @@ def main() -> None:
     lines = []
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
-        packings = {n: pour(config, fill, 0, scratch / f"pour{n}") for n, fill in FILLS.items()}
+        pouring = PourSettings.from_config(config)
+        packings = {n: pour(pouring, fill, 0, scratch / f"pour{n}") for n, fill in FILLS.items()}
         for n, packing in packings.items():
             assert packing.n_spheres == n, (n, packing.n_spheres)
         csv = scratch / "packing11.csv"

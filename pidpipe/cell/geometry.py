@@ -156,6 +156,33 @@ def triangle_normals(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
 
+def cells_wall_triangles(cell: HexCell, top_z_m: float | None = None, closed: bool = True,
+                         offsets_xy_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The walls of one cell, or of several separate cells, as one triangle mesh.
+
+    Parameters
+    ----------
+    top_z_m, closed
+        As :func:`cell_wall_triangles`.
+    offsets_xy_m : ndarray, shape (n_cells, 2), optional
+        Where each cell's axis is, m (default: one cell at the origin).
+
+    Returns
+    -------
+    points : ndarray, shape (12 * n_cells, 3)
+        Vertex coordinates, m, cell by cell.
+    triangles : ndarray, shape (n_triangles, 3)
+        Vertex indices, wound so that the right-hand normal points into the cells.
+    """
+    points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed)
+    if offsets_xy_m is not None:
+        offsets = np.asarray(offsets_xy_m, dtype=float).reshape(-1, 2)
+        n_points = len(points)
+        triangles = np.vstack([triangles + k * n_points for k in range(len(offsets))])
+        points = np.vstack([points + [x, y, 0.0] for x, y in offsets])
+    return points, triangles
+
+
 def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None,
                    closed: bool = True, offsets_xy_m: np.ndarray | None = None) -> Path:
     """Write the cell walls as an ASCII STL file (coordinates in m) with meshio.
@@ -173,12 +200,8 @@ def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None
     import meshio
 
     path = Path(path)
-    points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed)
-    if offsets_xy_m is not None:
-        offsets = np.asarray(offsets_xy_m, dtype=float).reshape(-1, 2)
-        n_points = len(points)
-        triangles = np.vstack([triangles + k * n_points for k in range(len(offsets))])
-        points = np.vstack([points + [x, y, 0.0] for x, y in offsets])
+    points, triangles = cells_wall_triangles(cell, top_z_m=top_z_m, closed=closed,
+                                             offsets_xy_m=offsets_xy_m)
     tmp = path.with_name(path.name + ".part")
     meshio.write(tmp, meshio.Mesh(points, [("triangle", triangles)]), file_format="stl",
                  binary=False)

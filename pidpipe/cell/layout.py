@@ -25,15 +25,10 @@ import numpy as np
 from pidpipe.cell.geometry import HexCell, write_cell_stl
 
 GAP_RADII = 2.0
-
-
 """Gap between neighbouring cells' walls, in sphere radii (any gap > 0 keeps them apart: a
 sphere cannot leave its own closed cell)."""
 
-
 MAX_CELLS = 24
-
-
 """Most cells in one run: each needs a LIGGGHTS group, and LIGGGHTS allows 32 groups."""
 
 

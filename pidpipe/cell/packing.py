@@ -19,17 +19,16 @@ from pidpipe.cell.geometry import HexCell
 from pidpipe.errors import PackingError, ParseError
 
 DEPOSITION_GAP_FRACTION = 0.02
-
-
 """Gap left above each deposited sphere, as a fraction of the radius (so nothing overlaps)."""
 
-
 SETTLED_SPEED_M_S = 5e-3
+"""A packing counts as settled when no sphere moves faster than this at the end, m/s."""
 
 MAX_FURTHER_SETTLING = 4
-
-
-"""A packing counts as settled when no sphere moves faster than this at the end, m/s."""
+"""Chunks of ``fidelity.settle_time_s`` that a pour not settled after the configured settle time
+goes on settling, at most. Of 441 pours of the default config at 50 % fill (seeds
+fidelity.seed + 0 .. 440) two had not settled after 0.15 s (fastest sphere 5.5 and 7.7 mm/s);
+one further chunk settled both (below 0.1 mm/s)."""
 
 
 @dataclass(frozen=True)
@@ -73,12 +72,6 @@ class Packing:
     def centres(self) -> np.ndarray:
         """Sphere centres, shape (n_spheres, 3), m."""
         return np.asarray(self.positions_m, dtype=float).reshape(-1, 3)
-
-
-def cell_from_config(config: dict) -> HexCell:
-    """The configured honeycomb cell."""
-    geo = config["geometry"]
-    return HexCell(geo["cell_inscribed_diameter_m"], geo["core_height_m"])
 
 
 def random_start(cell: HexCell, n_spheres: int, radius_m: float, seed: int) -> np.ndarray:

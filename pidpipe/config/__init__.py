@@ -1,8 +1,10 @@
 """The config: ``config.yaml`` validated against its JSON schema, and what follows from it.
 
 :mod:`.schema` loads and validates (:func:`load_config`, :func:`validate_config`);
-:mod:`.derived` computes what follows from a validated config (material and pair properties,
-spheres per fill, the sphere budget).
+:mod:`.settings` parses a validated config (or a stage's part of it) once into the frozen,
+typed settings the stages take; :mod:`.stages` cuts out the part each rule depends on;
+:mod:`.derived` computes what follows from a validated config (pair properties, spheres per
+fill, the sphere budget).
 """
 
 from pidpipe.config.derived import (
@@ -10,6 +12,8 @@ from pidpipe.config.derived import (
                                     coupon_mass_kg,
                                     full_cell_spheres,
                                     pair_properties,
+                                    panel_mass_kg,
+                                    panel_n_cells,
                                     particle_properties,
                                     spheres_for_fill,
                                     wall_properties,
@@ -25,6 +29,6 @@ from pidpipe.config.schema import (
 
 __all__ = [
     "DEFAULT_CONFIG_PATH", "REPO_ROOT", "SCHEMA_PATH", "budget_spheres", "coupon_mass_kg",
-    "full_cell_spheres", "load_config", "load_schema", "pair_properties", "particle_properties",
+    "full_cell_spheres", "load_config", "panel_mass_kg", "panel_n_cells", "load_schema", "pair_properties", "particle_properties",
     "spheres_for_fill", "validate_config", "wall_properties",
 ]

@@ -43,9 +43,14 @@ def full_cell_spheres(config: dict) -> int:
     return int(fill["poured_capacity_spheres"])
 
 
-def spheres_for_fill(config: dict, fill_pct: float) -> int:
+def spheres_at_fill(full_cell_spheres: int, fill_pct: float) -> int:
     """Spheres per cell at fill r (percent): round half up of full_cell_spheres * r / 100."""
-    return int(math.floor(full_cell_spheres(config) * float(fill_pct) / 100.0 + 0.5))
+    return int(math.floor(full_cell_spheres * float(fill_pct) / 100.0 + 0.5))
+
+
+def spheres_for_fill(config: dict, fill_pct: float) -> int:
+    """Spheres per cell at fill r (percent) under the configured fill definition."""
+    return spheres_at_fill(full_cell_spheres(config), fill_pct)
 
 
 def coupon_mass_kg(config: dict) -> float:
@@ -57,11 +62,22 @@ def coupon_mass_kg(config: dict) -> float:
     return sheets + core
 
 
+def panel_n_cells(config: dict) -> int:
+    """Cells of the structure that may be filled: ``panel.n_cells``, or the coupon's N if null."""
+    n_cells = config.get("panel", {}).get("n_cells")
+    return int(config["geometry"]["coupon_n_cells"] if n_cells is None else n_cells)
+
+
+def panel_mass_kg(config: dict) -> float:
+    """Mass of the empty panel, kg: the coupon's, scaled by panel cells / coupon cells."""
+    return coupon_mass_kg(config) * panel_n_cells(config) / int(config["geometry"]["coupon_n_cells"])
+
+
 def budget_spheres(config: dict) -> int:
-    """The particle budget n_b of the coupon, in spheres."""
+    """The particle budget n_b of the panel (``panel.n_cells`` cells), in spheres."""
     budget = config["budget"]
     if budget["mode"] == "spheres":
         return int(budget["spheres"])
     particle = particle_properties(config)
     one = sphere_mass(particle["radius_m"], particle["density_kg_m3"])
-    return int(math.floor(budget["mass_fraction"] * coupon_mass_kg(config) / one))
+    return int(math.floor(budget["mass_fraction"] * panel_mass_kg(config) / one))

@@ -17,9 +17,13 @@ _STAGE_KEYS: dict[str, dict[str, list[str] | None]] = {
     },
     "case": {
         "geometry": ["cell_inscribed_diameter_m", "core_height_m", "coupon_n_cells"],
+        # fill, settle_time_s and seed: a case pours the further packings its target needs
+        "fill": None,
         "fidelity": ["timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
                      "transient_min_time_s", "measured_cycles", "sem_block_cycles", "rotation", "friction",
-                     "target_relative_sem", "max_measured_cycles", "cells_per_run"],
+                     "target_relative_sem", "max_measured_cycles", "cells_per_run",
+                     "max_cells_per_case", "max_case_cpu_s", "settle_time_s", "seed"],
+        "inspection": ["phase_windows_per_cycle", "phase_sample_every_steps"],
     },
 }
 

@@ -1,6 +1,6 @@
 """One case in the compiled DEM, with the record of the LIGGGHTS path (:func:`pidpipe.liggghts.shake.run_case`).
 
-The same config, case and packings (LIGGGHTS' pour), the k cells of ``fidelity.cells_per_run``
+The same settings, case and packings (LIGGGHTS' pour), the k cells of ``fidelity.cells_per_run``
 integrated as one batch, and the same rules on the result: the steady-state verdict on the k
 cells' summed series (:func:`pidpipe.measurement.steady_state.assess_steady_state`), the mean cell's C_eq
 with a standard error that includes the packing scatter
@@ -23,14 +23,15 @@ import numpy as np
 
 from pidpipe.cases import CaseSpec, regime
 from pidpipe.cell.packing import Packing, check_packing
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.contacts import DISSIPATION_TERMS
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.dem.from_scene import dem_scene
 from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles, start
 from pidpipe.liggghts.parsing import CycleSeries
 from pidpipe.liggghts.shake import RECORD_VERSION, as_packing_list, containment_flags
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.steady_state import assess_steady_state
-from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 
 ENGINE_NAME = "dem"
@@ -41,14 +42,14 @@ balance, as a fraction of the work exchanged with the walls (the two differ by t
 error of the trapezoidal work of the elastic forces; measured well below 1e-3 of E_d)."""
 
 
-def run_dem_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
+def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
                  workdir: str | Path | None = None) -> dict:
     """Shake one case in the compiled DEM and return its record.
 
     Parameters
     ----------
-    config : dict
-        Validated config.
+    settings : ShakeSettings
+        The cell, materials, fidelity and sampling of the case.
     case : CaseSpec
     packings : Packing or sequence of Packing
         One settled packing per cell (all of the case's fill, so of equal sphere counts).
@@ -65,11 +66,12 @@ def run_dem_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Pack
     for index, packing in enumerate(packings):
         check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
     k = len(packings)
-    fidelity = config["fidelity"]
-    block = int(fidelity["sem_block_cycles"])
-    configured_transient = transient_cycles_for(config, case.freq_hz)
-    n_cycles = configured_transient + int(fidelity["measured_cycles"])
-    scene = scene_from_config(config, case.freq_hz, [case.accel_g] * k)
+    fidelity, sampling = settings.fidelity, settings.sampling
+    block = sampling.sem_block_cycles
+    configured_transient = sampling.transient_cycles_at(case.freq_hz)
+    n_cycles = configured_transient + sampling.measured_cycles
+    cell_scene = CellScene.of(settings)
+    scene = dem_scene(cell_scene, case.freq_hz, [case.accel_g] * k)
     scene, state, ws = start(scene, np.stack([packing.centres() for packing in packings]))
     cycles = run_cycles(scene, state, ws, n_cycles)
     series = summed_series(cycles)
@@ -77,7 +79,7 @@ def run_dem_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Pack
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,
                                  block)
     transient = steady.transient_cycles
-    n_coupon = config["geometry"]["coupon_n_cells"]
+    n_coupon = settings.coupon_n_cells
     summary = summarise_cells([cell[transient:] for cell in cycles["dissipated_terms_j"]],
                               case.freq_hz, case.accel_g, n_coupon, block)
     for cell_summary, terms, packing in zip(summary["cells"], cycles["dissipated_terms_j"],
@@ -85,7 +87,7 @@ def run_dem_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Pack
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m, dissipated_j=terms.tolist())
     mismatch = balance_mismatch(series.dissipated_j, balance.sum(axis=0), series.gross_work_j)
-    flags = (containment_flags(config, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
+    flags = (containment_flags(cell_scene, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
              + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else []))
     measured = slice(transient, None)
     wall_time, cpu_time = time.perf_counter() - started, time.process_time() - cpu_started
@@ -107,15 +109,15 @@ def run_dem_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Pack
         "ledger_mismatch_of_gross_work": mismatch,
         "cycles": series.as_record(),
         "fidelity": {
-            **plan_timestep(config, case.freq_hz).as_record(),
-            "timestep_rayleigh_fraction_config": fidelity["timestep_rayleigh_fraction"],
-            "youngs_modulus_scale": fidelity["youngs_modulus_scale"],
+            **cell_scene.timestep(case.freq_hz).as_record(),
+            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
+            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
             "transient_cycles": transient,
             "transient_cycles_configured": configured_transient,
-            "measured_cycles": int(fidelity["measured_cycles"]),
+            "measured_cycles": sampling.measured_cycles,
             "sem_block_cycles": block,
-            "rotation": bool(fidelity["rotation"]),
-            "friction": bool(fidelity["friction"]),
+            "rotation": fidelity.rotation,
+            "friction": fidelity.friction,
             "cells_per_run": k,
             "seed": packings[0].seed,
             "seeds": [packing.seed for packing in packings],

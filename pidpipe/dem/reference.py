@@ -14,8 +14,12 @@ from typing import Callable
 
 import numpy as np
 
-from pidpipe.dem.contacts import (DISSIPATION_TERMS, Workspace, accumulated_dissipation,
-                                  reset_accumulators)
+from pidpipe.dem.contacts import (
+    DISSIPATION_TERMS,
+    Workspace,
+    accumulated_dissipation,
+    reset_accumulators,
+)
 from pidpipe.dem.energy import centre_of_mass_height, ledger_energy
 from pidpipe.dem.integrator import set_up, step
 from pidpipe.dem.run import CONTACT_TYPES, cycle_ledgers, prepare

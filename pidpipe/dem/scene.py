@@ -21,35 +21,9 @@ import numpy as np
 
 from pidpipe.cell.geometry import HexCell
 from pidpipe.physics import contact
+from pidpipe.physics.materials import Material
 
 _SQRT_FIVE_SIXTHS = math.sqrt(5.0 / 6.0)
-
-
-@dataclass(frozen=True)
-class Material:
-    """An isotropic elastic material.
-
-    Parameters
-    ----------
-    youngs_modulus_pa : float
-        Young's modulus E, Pa.
-    poisson_ratio : float
-        Poisson's ratio nu.
-    density_kg_m3 : float
-        Density, kg/m^3 (used for particles only).
-    radius_m : float
-        Sphere radius, m (used for particles only).
-    """
-
-    youngs_modulus_pa: float
-    poisson_ratio: float
-    density_kg_m3: float = 0.0
-    radius_m: float = 0.0
-
-    def scaled(self, youngs_modulus_scale: float) -> "Material":
-        """The same material with E multiplied by ``youngs_modulus_scale``."""
-        return Material(self.youngs_modulus_pa * youngs_modulus_scale, self.poisson_ratio,
-                        self.density_kg_m3, self.radius_m)
 
 
 @dataclass(frozen=True)

@@ -6,10 +6,12 @@ The problem, for one operating environment::
     subject to  spheres_per_cell(r) * n_c = n_b,  spheres_per_cell(r) = s_full * r / 100
                 f_lo <= f <= f_hi,  G_lo <= G <= G_hi   (the environment's band)
                 r_lo <= r <= r_hi                       (the surrogate's fill domain)
-                1 <= n_c <= N
+                1 <= n_c <= N_panel
 
 C_eq(f, G, r) is the coupon's equivalent damping with all N cells filled at r, so C_eq/N is one
-cell's. ``s_full`` is the number of spheres in a cell at r = 100 %: 36 in the source study, 22 in
+cell's; the cells are independent (README "The scene"), so the panel being designed may have more
+cells than the coupon, N_panel >= N (``Budget.n_cells_panel``, config ``panel.n_cells``).
+``s_full`` is the number of spheres in a cell at r = 100 %: 36 in the source study, 22 in
 pidpipe's default "poured capacity" definition.
 
 SLSQP works on the variables scaled to [0, 1] by their bounds and on the objective divided by a
@@ -31,14 +33,11 @@ the domain instead, and the result records that it did.
 
 from __future__ import annotations
 
-import json
 import math
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
-import pandas as pd
 from scipy.optimize import minimize
 from scipy.stats import qmc
 
@@ -94,17 +93,26 @@ class Budget:
         Spheres in one cell at r = 100 % (``pidpipe.config.full_cell_spheres``: 36 in the
         source's definition, 21 in the default poured-capacity one).
     n_cells_coupon : int
-        N, cells of the coupon whose C_eq the surrogate predicts, and the most cells to fill.
+        N, cells of the coupon whose C_eq the surrogate predicts (C_eq / N is one cell's).
+    n_cells_panel : int or None
+        The cells of the structure that may be filled, the most n_c can be; None: the coupon's N.
     """
 
     n_spheres: int
     full_cell_spheres: float
     n_cells_coupon: int
+    n_cells_panel: int | None = None
 
     def __post_init__(self) -> None:
-        if not (self.n_spheres >= 1 and self.full_cell_spheres > 0 and self.n_cells_coupon >= 1):
-            raise ConfigError(f"budget needs n_spheres >= 1, full_cell_spheres > 0 and "
-                              f"n_cells_coupon >= 1; got {self}")
+        if not (self.n_spheres >= 1 and self.full_cell_spheres > 0 and self.n_cells_coupon >= 1
+                and (self.n_cells_panel is None or self.n_cells_panel >= 1)):
+            raise ConfigError(f"budget needs n_spheres >= 1, full_cell_spheres > 0, "
+                              f"n_cells_coupon >= 1 and n_cells_panel >= 1; got {self}")
+
+    @property
+    def max_cells(self) -> int:
+        """The most cells that may be filled: the panel's, or the coupon's N without a panel."""
+        return int(self.n_cells_panel if self.n_cells_panel is not None else self.n_cells_coupon)
 
     def spheres_per_cell(self, fill_pct):
         """Spheres in one cell at fill r (%): full_cell_spheres * r / 100 (not rounded)."""
@@ -129,11 +137,12 @@ class StartRun:
 
 @dataclass
 class LocalOptimum:
-    """A cluster of converged end points; values are those of its best member."""
+    """A cluster of converged end points; values are those of its best member (f and G are
+    None for the band designs, which have no single point)."""
 
-    freq_hz: float
+    freq_hz: float | None
     fill_pct: float
-    accel_g: float
+    accel_g: float | None
     n_cells: float
     total_ceq_ns_m: float
     n_starts: int
@@ -147,7 +156,9 @@ class Design:
     ``spheres_per_cell`` = n_b / n_cells is what the budget implies (not a whole number in
     general); ``fill_pct`` is the fill it corresponds to, at which ``total_ceq_ns_m`` is
     evaluated. ``whole_spheres_per_cell`` = floor of it; ``spheres_left_over`` = n_b -
-    whole * n_cells can go one each into that many cells.
+    whole * n_cells can go one each into that many cells. ``freq_hz`` and ``accel_g`` are the
+    peak design's point, None for the band designs (whose ``total_ceq_ns_m`` is the band mean
+    or the band minimum).
     """
 
     n_cells: int
@@ -155,8 +166,8 @@ class Design:
     whole_spheres_per_cell: int
     spheres_left_over: int
     fill_pct: float
-    freq_hz: float
-    accel_g: float
+    freq_hz: float | None
+    accel_g: float | None
     ceq_per_cell_ns_m: float
     total_ceq_ns_m: float
     budget_residual_spheres: float
@@ -175,6 +186,14 @@ class OptimisationResult:
     local_optima: list[LocalOptimum]
     design: Design
     starts: list[StartRun] = field(repr=False)
+    #: "peak", "band_mean" or "worst_case" (:mod:`pidpipe.design.designs`).
+    kind: str = "peak"
+    #: The design's total C_eq over the band (a :class:`pidpipe.design.band.BandSummary`).
+    band: object = None
+    #: Non-empty when the design relies on the G <= 1 regime (:mod:`pidpipe.design.designs`).
+    regime_warning: str = ""
+    #: Bootstrap intervals and win counts (:mod:`pidpipe.design.bootstrap`), or None.
+    uncertainty: dict | None = None
 
     @property
     def n_converged(self) -> int:
@@ -227,14 +246,14 @@ def environment_bounds(model: CeqModel, environment: Environment, budget: Budget
         clipped = clipped or not inside
         bounds[key] = (max(lo, d_lo), min(hi, d_hi))
     bounds["fill_pct"] = tuple(float(v) for v in model.domain["fill_pct"])
-    bounds["n_cells"] = (1.0, float(budget.n_cells_coupon))
+    bounds["n_cells"] = (1.0, float(budget.max_cells))
     return {k: bounds[k] for k in VARIABLES}, clipped
 
 
 def feasible_fill_range(bounds: dict[str, tuple[float, float]], budget: Budget) -> tuple[float, float]:
-    """Fills r (%) at which the budget can be spent exactly with 1 <= n_c <= N.
+    """Fills r (%) at which the budget can be spent exactly with 1 <= n_c <= N_panel.
 
-    r * n_c = 100 n_b / s_full, so n_c <= N needs r >= 100 n_b / (s_full N) and n_c >= 1 needs
+    r * n_c = 100 n_b / s_full, so n_c <= N_panel needs r >= 100 n_b / (s_full N_panel) and n_c >= 1 needs
     r <= 100 n_b / s_full; intersected with the fill bounds.
 
     Raises
@@ -244,7 +263,7 @@ def feasible_fill_range(bounds: dict[str, tuple[float, float]], budget: Budget) 
     """
     r_lo, r_hi = bounds["fill_pct"]
     product = 100.0 * budget.n_spheres / budget.full_cell_spheres  # r * n_c, %*cells
-    n_max = budget.n_cells_coupon
+    n_max = budget.max_cells
     one_cell_min = float(budget.spheres_per_cell(r_lo))
     if product < r_lo:
         raise BudgetError(
@@ -254,9 +273,10 @@ def feasible_fill_range(bounds: dict[str, tuple[float, float]], budget: Budget) 
     if product / n_max > r_hi:
         most = float(budget.spheres_per_cell(r_hi)) * n_max
         raise BudgetError(
-            f"budget of {budget.n_spheres} spheres cannot be spent: all {n_max} cells at the "
-            f"highest fill {r_hi:g} % hold only {most:g} spheres; lower the budget, or extend "
-            f"the fill grid upwards")
+            f"budget of {budget.n_spheres} spheres cannot be spent: all {n_max} cells "
+            f"{'of the panel ' if budget.n_cells_panel is not None else ''}at the "
+            f"highest fill {r_hi:g} % hold only {most:g} spheres; lower the budget, raise "
+            f"panel.n_cells, or extend the fill grid upwards")
     return max(r_lo, product / n_max), min(r_hi, product)
 
 
@@ -266,6 +286,10 @@ def feasible_fill_range(bounds: dict[str, tuple[float, float]], budget: Budget) 
 
 class _Problem:
     """Objective and constraint of one environment in scaled variables z in [0, 1]^4."""
+
+    variables = VARIABLES
+    cluster_slice = slice(0, 3)  # f, r, G
+    ftol = 1e-10  # SLSQP's tolerance on the scaled objective
 
     def __init__(self, model: CeqModel, bounds: dict[str, tuple[float, float]], budget: Budget):
         self.model, self.budget = model, budget
@@ -303,6 +327,14 @@ class _Problem:
         """Budget residual relative to n_b (0 when the budget is spent exactly)."""
         return self.budget_residual(self.to_x(z)) / self.budget.n_spheres
 
+    def constraints(self) -> list[dict]:
+        """SLSQP's constraints: the budget, spent exactly."""
+        return [{"type": "eq", "fun": self.constraint}]
+
+    def named(self, x: np.ndarray) -> dict[str, float]:
+        """Physical x by variable name."""
+        return dict(zip(VARIABLES, map(float, x)))
+
 
 def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_starts: int,
                     seed: int) -> np.ndarray:
@@ -317,6 +349,8 @@ def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_st
         Physical (f Hz, r %, G g, n_c) per row.
     """
     r_lo, r_hi = feasible_fill_range(bounds, budget)
+    if n_starts == 0:
+        return np.empty((0, len(VARIABLES)))
     sample = qmc.LatinHypercube(d=3, rng=np.random.default_rng(seed)).random(n_starts)
     f_lo, f_hi = np.log(bounds["freq_hz"][0]), np.log(bounds["freq_hz"][1])
     g_lo, g_hi = bounds["accel_g"]
@@ -327,8 +361,13 @@ def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_st
     return np.column_stack([f, r, g, n_c])
 
 
-def _run_start(problem: _Problem, index: int, x0: np.ndarray, maxiter: int) -> StartRun:
-    """One SLSQP run from x0, recording the objective (N*s/m) at each iteration."""
+def _run_start(problem, index: int, x0: np.ndarray, maxiter: int) -> StartRun:
+    """One SLSQP run from x0, recording the objective (N*s/m) at each iteration.
+
+    ``problem`` is a :class:`_Problem` or another problem with the same interface
+    (``to_x``, ``to_z``, ``fixed``, ``ftol``, ``objective``, ``constraints``, ``named``,
+    ``total_ceq``, ``budget_residual``, ``budget``), such as the band designs' of :mod:`pidpipe.design.band`.
+    """
     history = [problem.total_ceq(x0)]
 
     def record(zk: np.ndarray) -> None:
@@ -337,22 +376,23 @@ def _run_start(problem: _Problem, index: int, x0: np.ndarray, maxiter: int) -> S
     result = minimize(
         problem.objective, problem.to_z(x0), method="SLSQP",
         bounds=[(0.0, 0.0) if fixed else (0.0, 1.0) for fixed in problem.fixed],
-        constraints=[{"type": "eq", "fun": problem.constraint}],
-        callback=record, options={"maxiter": maxiter, "ftol": 1e-10},
+        constraints=problem.constraints(),
+        callback=record, options={"maxiter": maxiter, "ftol": problem.ftol},
     )
     x = problem.to_x(result.x)
     residual = problem.budget_residual(x)
     feasible = abs(residual) <= BUDGET_RTOL * problem.budget.n_spheres
     return StartRun(
-        index=index, start=dict(zip(VARIABLES, map(float, x0))), final=dict(zip(VARIABLES, map(float, x))),
+        index=index, start=problem.named(x0), final=problem.named(x),
         objective_ns_m=float(problem.total_ceq(x)), history_ns_m=[float(v) for v in history], success=bool(result.success),
         converged=bool(result.success) and feasible, message=str(result.message),
         n_iterations=int(result.nit), budget_residual_spheres=residual,
     )
 
 
-def cluster_optima(runs: list[StartRun], problem: _Problem, tol: float) -> list[LocalOptimum]:
-    """Group converged end points within ``tol`` of each other in scaled (f, r, G).
+def cluster_optima(runs: list[StartRun], problem, tol: float) -> list[LocalOptimum]:
+    """Group converged end points within ``tol`` of each other in the problem's scaled
+    clustering variables (f, r, G for the peak design; r for the band designs).
 
     Returns
     -------
@@ -362,7 +402,7 @@ def cluster_optima(runs: list[StartRun], problem: _Problem, tol: float) -> list[
     converged = sorted((run for run in runs if run.converged), key=lambda run: -run.objective_ns_m)
     clusters: list[tuple[np.ndarray, list[StartRun]]] = []
     for run in converged:
-        z = problem.to_z(np.array([run.final[k] for k in VARIABLES]))[:3]
+        z = problem.to_z(np.array([run.final[k] for k in problem.variables]))[problem.cluster_slice]
         for centre, members in clusters:
             if np.linalg.norm(z - centre) <= tol:
                 members.append(run)
@@ -373,18 +413,81 @@ def cluster_optima(runs: list[StartRun], problem: _Problem, tol: float) -> list[
     for _, members in clusters:
         best = members[0]
         optima.append(LocalOptimum(
-            freq_hz=float(best.final["freq_hz"]), fill_pct=float(best.final["fill_pct"]),
-            accel_g=float(best.final["accel_g"]), n_cells=float(best.final["n_cells"]),
+            freq_hz=best.final.get("freq_hz"), fill_pct=float(best.final["fill_pct"]),
+            accel_g=best.final.get("accel_g"), n_cells=float(best.final["n_cells"]),
             total_ceq_ns_m=float(best.objective_ns_m), n_starts=len(members),
             start_indices=[m.index for m in members]))
     return optima
 
 
+def run_starts(problem, x0s, maxiter: int, cluster_tol: float,
+               what: str) -> tuple[list[StartRun], list[LocalOptimum]]:
+    """SLSQP from every starting point, then the local optima (best first).
+
+    Raises
+    ------
+    PidpipeError
+        No start converged to a feasible point (``what`` names the problem).
+    """
+    runs = [_run_start(problem, i, x0, maxiter) for i, x0 in enumerate(x0s)]
+    optima = cluster_optima(runs, problem, cluster_tol)
+    if not optima:
+        messages = sorted({run.message for run in runs})
+        raise PidpipeError(f"{what}: SLSQP converged to a feasible point from none of {len(runs)} "
+                           f"starts ({'; '.join(messages)})")
+    return runs, optima
+
+
+def whole_cell_candidates(budget: Budget, n_cells: float,
+                          fill_bounds: tuple[float, float]) -> list[tuple[int, float, float]]:
+    """The whole numbers of cells next to a continuous n_c that spend the budget in the bounds.
+
+    Both floor and ceil of n_c (within 1 ... N_panel) are tried; a candidate is kept if the fill
+    it implies, 100 * (n_b / n_c) / s_full, lies within ``fill_bounds`` (%).
+
+    Returns
+    -------
+    list of (int, float, float)
+        (cells, spheres per cell, fill %) of each kept candidate; never empty.
+
+    Raises
+    ------
+    BudgetError
+        Neither whole number of cells gives a fill within the bounds.
+    """
+    r_lo, r_hi = fill_bounds
+    candidates = {int(np.clip(math.floor(n_cells), 1, budget.max_cells)),
+                  int(np.clip(math.ceil(n_cells), 1, budget.max_cells))}
+    kept = []
+    for cells in sorted(candidates):
+        per_cell = budget.n_spheres / cells
+        fill = 100.0 * per_cell / budget.full_cell_spheres
+        if r_lo - 1e-9 <= fill <= r_hi + 1e-9:
+            kept.append((cells, per_cell, float(np.clip(fill, r_lo, r_hi))))
+    if not kept:
+        raise BudgetError(f"no whole number of cells near n_c = {n_cells:.3f} spends the "
+                          f"budget of {budget.n_spheres} spheres at a fill within "
+                          f"[{r_lo:g}, {r_hi:g}] %")
+    return kept
+
+
+def make_design(budget: Budget, n_cells: int, per_cell: float, fill: float, total_ns_m: float,
+                freq_hz: float | None, accel_g: float | None) -> Design:
+    """A :class:`Design` of ``n_cells`` cells at ``fill`` whose total C_eq is ``total_ns_m``."""
+    whole = math.floor(per_cell + 1e-9)
+    return Design(
+        n_cells=n_cells, spheres_per_cell=per_cell, whole_spheres_per_cell=whole,
+        spheres_left_over=int(budget.n_spheres - whole * n_cells), fill_pct=fill,
+        freq_hz=freq_hz, accel_g=accel_g, ceq_per_cell_ns_m=total_ns_m / n_cells,
+        total_ceq_ns_m=total_ns_m,
+        budget_residual_spheres=float(budget.spheres_per_cell(fill)) * n_cells - budget.n_spheres)
+
+
 def whole_cell_design(problem: _Problem, optimum: LocalOptimum) -> Design:
     """Round n_c to a whole number of cells and re-derive the fill from the budget.
 
-    Both floor and ceil of n_c are tried; a candidate is kept if the fill it implies,
-    100 * (n_b / n_c) / s_full, lies within the fill bounds; the better one wins.
+    Of the candidates of :func:`whole_cell_candidates` the better one, by the total C_eq at
+    the optimum's f and G, wins.
 
     Raises
     ------
@@ -393,27 +496,11 @@ def whole_cell_design(problem: _Problem, optimum: LocalOptimum) -> Design:
     """
     budget = problem.budget
     r_lo, r_hi = problem.lo[1], problem.hi[1]
-    candidates = {int(np.clip(math.floor(optimum.n_cells), 1, budget.n_cells_coupon)),
-                  int(np.clip(math.ceil(optimum.n_cells), 1, budget.n_cells_coupon))}
     designs = []
-    for n_cells in sorted(candidates):
-        per_cell = budget.n_spheres / n_cells
-        fill = 100.0 * per_cell / budget.full_cell_spheres
-        if not (r_lo - 1e-9 <= fill <= r_hi + 1e-9):
-            continue
-        fill = float(np.clip(fill, r_lo, r_hi))
+    for n_cells, per_cell, fill in whole_cell_candidates(budget, optimum.n_cells, (r_lo, r_hi)):
         ceq_cell = float(problem.model.predict(optimum.freq_hz, optimum.accel_g, fill)) / budget.n_cells_coupon
-        whole = math.floor(per_cell + 1e-9)
-        designs.append(Design(
-            n_cells=n_cells, spheres_per_cell=per_cell, whole_spheres_per_cell=whole,
-            spheres_left_over=int(budget.n_spheres - whole * n_cells), fill_pct=fill,
-            freq_hz=optimum.freq_hz, accel_g=optimum.accel_g, ceq_per_cell_ns_m=ceq_cell,
-            total_ceq_ns_m=ceq_cell * n_cells,
-            budget_residual_spheres=float(budget.spheres_per_cell(fill)) * n_cells - budget.n_spheres))
-    if not designs:
-        raise BudgetError(f"no whole number of cells near n_c = {optimum.n_cells:.3f} spends the "
-                          f"budget of {budget.n_spheres} spheres at a fill within "
-                          f"[{r_lo:g}, {r_hi:g}] %")
+        designs.append(make_design(budget, n_cells, per_cell, fill, ceq_cell * n_cells,
+                                   optimum.freq_hz, optimum.accel_g))
     return max(designs, key=lambda d: d.total_ceq_ns_m)
 
 
@@ -423,7 +510,8 @@ def whole_cell_design(problem: _Problem, optimum: LocalOptimum) -> Design:
 
 def optimise_environment(model: CeqModel, environment: Environment, budget: Budget,
                          starts: int = 40, seed: int = 7, clip_environment: bool = False,
-                         cluster_tol: float = 0.02, maxiter: int = 200) -> OptimisationResult:
+                         cluster_tol: float = 0.02, maxiter: int = 200,
+                         initial_points: np.ndarray | None = None) -> OptimisationResult:
     """Maximise the panel's total C_eq in one environment from many SLSQP starts.
 
     Parameters
@@ -442,6 +530,9 @@ def optimise_environment(model: CeqModel, environment: Environment, budget: Budg
         Distance in scaled (f, r, G) below which two end points are the same local optimum.
     maxiter : int
         SLSQP's iteration limit per start.
+    initial_points : numpy.ndarray, shape (m, 4), optional
+        Physical (f, r, G, n_c) starting points run before the ``starts`` Latin-hypercube ones
+        (the bootstrap starts from the main run's local optima); ``starts`` may then be 0.
 
     Returns
     -------
@@ -456,19 +547,15 @@ def optimise_environment(model: CeqModel, environment: Environment, budget: Budg
     PidpipeError
         No start converged to a feasible point.
     """
-    if starts < 1:
+    given = np.empty((0, len(VARIABLES))) if initial_points is None else np.atleast_2d(initial_points)
+    if starts < 0 or starts + len(given) < 1:
         raise ConfigError(f"starts must be >= 1, got {starts}")
     bounds, clipped = environment_bounds(model, environment, budget, clip_environment)
     problem = _Problem(model, bounds, budget)
-    x0s = starting_points(bounds, budget, starts, seed)
+    x0s = np.vstack([given, starting_points(bounds, budget, starts, seed)])
     initial = [problem.total_ceq(x0) for x0 in x0s]
     problem.scale = max(max(abs(v) for v in initial), 1e-300)
-    runs = [_run_start(problem, i, x0, maxiter) for i, x0 in enumerate(x0s)]
-    optima = cluster_optima(runs, problem, cluster_tol)
-    if not optima:
-        messages = sorted({run.message for run in runs})
-        raise PidpipeError(f"environment {environment.name!r}: SLSQP converged to a feasible point "
-                           f"from none of {starts} starts ({'; '.join(messages)})")
+    runs, optima = run_starts(problem, x0s, maxiter, cluster_tol, f"environment {environment.name!r}")
     return OptimisationResult(
         environment=environment, budget=budget, bounds=bounds, clipped=clipped, seed=seed,
         optimum=optima[0], local_optima=optima, design=whole_cell_design(problem, optima[0]),
@@ -479,71 +566,3 @@ def optimise_environments(model: CeqModel, environments: list[Environment], budg
                           **options) -> list[OptimisationResult]:
     """:func:`optimise_environment` for each environment, same options and seed."""
     return [optimise_environment(model, env, budget, **options) for env in environments]
-
-
-# --------------------------------------------------------------------------------------------
-# Output
-
-
-def results_frame(results: list[OptimisationResult]) -> pd.DataFrame:
-    """One row per environment: the whole-cell design, the continuous optimum and counts."""
-    rows = []
-    for res in results:
-        d, o = res.design, res.optimum
-        rows.append({
-            "environment": res.environment.name,
-            "freq_band_hz": f"{res.bounds['freq_hz'][0]:g}-{res.bounds['freq_hz'][1]:g}",
-            "accel_band_g": f"{res.bounds['accel_g'][0]:g}-{res.bounds['accel_g'][1]:g}",
-            "clipped": res.clipped,
-            "n_budget_spheres": res.budget.n_spheres,
-            "full_cell_spheres": res.budget.full_cell_spheres,
-            "n_cells": d.n_cells, "fill_pct": d.fill_pct, "spheres_per_cell": d.spheres_per_cell,
-            "whole_spheres_per_cell": d.whole_spheres_per_cell,
-            "spheres_left_over": d.spheres_left_over,
-            "freq_hz": d.freq_hz, "accel_g": d.accel_g,
-            "ceq_per_cell_ns_m": d.ceq_per_cell_ns_m, "total_ceq_ns_m": d.total_ceq_ns_m,
-            "continuous_n_cells": o.n_cells, "continuous_fill_pct": o.fill_pct,
-            "continuous_total_ceq_ns_m": o.total_ceq_ns_m,
-            "n_starts": len(res.starts), "n_converged": res.n_converged,
-            "n_local_optima": len(res.local_optima), "starts_at_optimum": o.n_starts,
-        })
-    return pd.DataFrame(rows)
-
-
-def history_frame(results: list[OptimisationResult]) -> pd.DataFrame:
-    """Long table of objective (N*s/m) against iteration for every start of every environment;
-    ``at_optimum`` marks the starts that ended in the global optimum's cluster."""
-    rows = []
-    for res in results:
-        best = set(res.optimum.start_indices)
-        for run in res.starts:
-            for it, value in enumerate(run.history_ns_m):
-                rows.append({"environment": res.environment.name, "start": run.index,
-                             "iteration": it, "total_ceq_ns_m": value,
-                             "converged": run.converged, "at_optimum": run.index in best})
-    return pd.DataFrame(rows)
-
-
-def write_results_csv(results: list[OptimisationResult], path: str | Path) -> None:
-    """Write :func:`results_frame` as CSV."""
-    results_frame(results).to_csv(path, index=False)
-
-
-def write_history_csv(results: list[OptimisationResult], path: str | Path) -> None:
-    """Write :func:`history_frame` as CSV."""
-    history_frame(results).to_csv(path, index=False)
-
-
-def write_results_json(results: list[OptimisationResult], path: str | Path) -> None:
-    """Write every result in full (starts and their histories included) as JSON."""
-    document = [asdict(res) for res in results]
-    Path(path).write_text(json.dumps(document, indent=1, default=_json_default))
-
-
-def _json_default(value):
-    """JSON encoder for numpy scalars and arrays."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"cannot write {type(value).__name__} to JSON")

@@ -1,4 +1,4 @@
-"""Reading the optimisation results back from their JSON file.
+"""Reading the optimisation results (every design, with its band and bootstrap) back from their JSON file.
 """
 
 from __future__ import annotations
@@ -12,7 +12,9 @@ from pidpipe.errors import ParseError
 
 
 def read_results_json(path: str | os.PathLike) -> list:
-    """Read the optimisation results written by ``write_results_json`` back into dataclasses."""
+    """Read the results written by :func:`pidpipe.design.designs.write_results_json` back into
+    dataclasses."""
+    from pidpipe.design.band import BandSummary
     from pidpipe.design.optimisation import (
         Budget,
         Design,
@@ -38,7 +40,11 @@ def read_results_json(path: str | os.PathLike) -> list:
                 optimum=build(LocalOptimum, item["optimum"]),
                 local_optima=[build(LocalOptimum, o) for o in item["local_optima"]],
                 design=build(Design, item["design"]),
-                starts=[build(StartRun, s) for s in item["starts"]]))
+                starts=[build(StartRun, s) for s in item["starts"]],
+                kind=item.get("kind", "peak"),
+                band=None if item.get("band") is None else build(BandSummary, item["band"]),
+                regime_warning=item.get("regime_warning", ""),
+                uncertainty=item.get("uncertainty")))
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ParseError(f"optimisation results {path} cannot be read: {exc}") from None
     return results

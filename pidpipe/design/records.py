@@ -19,14 +19,12 @@ from pidpipe.errors import ParseError
 #: Statuses a table row can have, from the most to the least usable.
 _STATUS_ORDER = ("ok", "flagged", "failed", "missing")
 
-
 #: (table column, where it is in a record): values averaged over replicates with their SEM.
 _MEAN_WITH_SEM = (
     ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m"),
     ("ceq_cell_ns_m", "ceq_cell_sem_ns_m"),
     ("ed_cycle_mean_j", "ed_cycle_sem_j"),
 )
-
 
 #: table column -> key path in a record, for settings that are the same for every replicate.
 _SETTING_COLUMNS = {
@@ -47,10 +45,9 @@ _SETTING_COLUMNS = {
     "liggghts_version": ("engine", "liggghts_version"),
 }
 
-
 #: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.design.ceq_table`).
 TABLE_COLUMNS: tuple[str, ...] = (
-    "case_id", "freq_hz", "accel_g", "fill_pct", "status", "flags", "regime", "signal",
+    "case_id", "freq_hz", "accel_g", "fill_pct", "status", "flags", "regime", "regime_cells", "signal",
     "n_replicates", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_relative_sem",
     "ceq_cell_ns_m", "ceq_cell_sem_ns_m",
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
@@ -162,7 +159,7 @@ def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dic
         row[value_key], row[sem_key] = combine_replicates(
             [_number(r.get(value_key)) for r in used], [_number(r.get(sem_key)) for r in used])
     row["n_cycles"] = int(sum(int(r.get("n_cycles") or 0) for r in used))
-    row["regime"] = regime(point[1])
+    row["regime"], row["regime_cells"] = table_regime(point[1], used)
     row["ceq_relative_sem"], row["signal"] = signal_quality(row["ceq_coupon_ns_m"],
                                                             row["ceq_coupon_sem_ns_m"])
     timed = [r for r in replicates if r.get("status") in ("ok", "flagged")]
@@ -175,6 +172,23 @@ def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dic
     for column, keys in _SETTING_COLUMNS.items():
         row[column] = _get(reference, keys)
     return row
+
+
+def table_regime(accel_g: float, used: list[dict]) -> tuple[str, str]:
+    """A grid point's regime and how its cells split, from its replicates' motion.
+
+    With the motion sampled (records with ``motion``), the regime is the one most cells of the
+    used replicates are in (:func:`pidpipe.measurement.regime.case_regime`) and ``regime_cells``
+    counts them (``bouncing_bed:5;irregular:2``); otherwise the regime is decided from G alone
+    (:func:`pidpipe.cases.regime`) and ``regime_cells`` is empty.
+    """
+    from pidpipe.measurement.regime import REGIMES, case_regime
+
+    cells = [name for r in used for name in (r.get("motion") or {}).get("cell_regimes", [])]
+    if not cells:
+        return regime(accel_g), ""
+    counts = {name: cells.count(name) for name in REGIMES if name in cells}
+    return case_regime(cells), ";".join(f"{name}:{count}" for name, count in counts.items())
 
 
 def _number(value) -> float:

@@ -260,16 +260,13 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     _check_holes(holes, method, allow_holes, excluded, source)
     points = used[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
     values = used[VALUE_COLUMN].to_numpy(dtype=float)
-    offset = log_offset_fraction * values.max() if target == "log" else 0.0
-    if target == "log" and offset <= 0.0:
-        offset = 1.0  # every value is 0: any positive offset gives the same (flat) surrogate
-    y = np.log(values + offset) if target == "log" else values
+    offset, y = _target_values(values, target, log_offset_fraction)
     domain = {name: (float(points[:, i].min()), float(points[:, i].max()))
               for i, name in enumerate(COORDINATE_COLUMNS)}
     model = _build_model(method, points, y, domain, smoothing, source)
     return Surrogate(
         method=method, target=target,
-        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN)
+        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN, "regime")
                        if c in used.columns]].reset_index(drop=True),
         domain=domain, offset_ns_m=float(offset),
         excluded=_describe_rows(excluded), holes=holes,
@@ -277,6 +274,49 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
                  "allow_holes": allow_holes},
         _model=model,
     )
+
+
+def _target_values(values: np.ndarray, target: str, log_offset_fraction: float):
+    """(c0, fitted y) of C_eq values: ln(C + c0) with c0 = fraction * max C, or C itself."""
+    if target != "log":
+        return 0.0, values
+    offset = log_offset_fraction * values.max()
+    if offset <= 0.0:
+        offset = 1.0  # every value is 0: any positive offset gives the same (flat) surrogate
+    return offset, np.log(values + offset)
+
+
+def refit_values(surrogate: Surrogate, values) -> Surrogate:
+    """The same surrogate (method, target, options, points) fitted to new C_eq values.
+
+    The points are the ones :func:`fit_surrogate` already checked, so the table is not validated
+    again (the bootstrap refits hundreds of times); the values must be finite and >= 0.
+
+    Parameters
+    ----------
+    surrogate : Surrogate
+    values : array_like, shape (n_rows,)
+        C_eq_coupon at the training rows, in their order, N*s/m.
+
+    Raises
+    ------
+    TableError
+        A value is not finite or is negative, or the number of values is not the number of rows.
+    """
+    values = np.asarray(values, dtype=float)
+    if values.shape != (len(surrogate.training),) or not np.all(np.isfinite(values) & (values >= 0)):
+        raise TableError(f"refit needs {len(surrogate.training)} finite C_eq >= 0, got shape {values.shape}")
+    points = surrogate.training[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
+    offset, y = _target_values(values, surrogate.target, surrogate.options.get(
+        "log_offset_fraction", DEFAULT_LOG_OFFSET_FRACTION))
+    training = surrogate.training.copy()
+    training[VALUE_COLUMN] = values
+    model = _build_model(surrogate.method, points, y, surrogate.domain,
+                         surrogate.options.get("smoothing", 0.0), "refit")
+    return Surrogate(method=surrogate.method, target=surrogate.target, training=training,
+                     domain=dict(surrogate.domain), offset_ns_m=float(offset),
+                     excluded=list(surrogate.excluded), holes=list(surrogate.holes),
+                     options=dict(surrogate.options), _model=model)
 
 
 def _check_options(method: str, target: str, log_offset_fraction: float, smoothing: float) -> None:
@@ -524,7 +564,8 @@ def load_surrogate(path: str | Path, rtol: float = 1e-8) -> Surrogate:
 
 def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
                    targets: tuple[str, ...] = TARGETS,
-                   log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION) -> pd.DataFrame:
+                   log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
+                   schemes: tuple[str, ...] = ("point", "plane")) -> pd.DataFrame:
     """Leave-one-out cross-validation of every (method, target) on the usable rows.
 
     Two schemes:
@@ -546,6 +587,8 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
         The candidates.
     log_offset_fraction : float
         As in :func:`fit_surrogate`.
+    schemes : tuple of str
+        The schemes to run (``point`` applies to rbf_thin_plate only).
 
     Returns
     -------
@@ -561,8 +604,9 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
     rows = []
     for method in methods:
         for target in targets:
-            schemes = ["point", "plane"] if method == "rbf_thin_plate" else ["plane"]
             for scheme in schemes:
+                if scheme == "point" and method != "rbf_thin_plate":
+                    continue
                 row = _cross_validate_one(used, method, target, scheme, log_offset_fraction)
                 if row is not None:
                     rows.append(row)

@@ -13,23 +13,17 @@ from matplotlib.figure import Figure
 
 CEQ_LABEL = r"$C_\mathrm{eq}$ (N·s/m)"
 
-
 AXIS_LABELS = {"freq_hz": "frequency f (Hz)", "accel_g": "base acceleration G (g)",
                 "fill_pct": "fill fraction r (%)"}
 
-
 UNITS = {"freq_hz": "Hz", "accel_g": "g", "fill_pct": "%"}
-
 
 SYMBOLS = {"freq_hz": "f", "accel_g": "G", "fill_pct": "r"}
 
-
 RC_PARAMS = {"font.size": 11, "axes.titlesize": 11, "axes.labelsize": 11, "legend.fontsize": 9}
-
 
 #: Colour scale floor, as a fraction of the largest C_eq drawn (values below share one colour).
 COLOUR_FLOOR = 1e-3
-
 
 GRID_POINTS = 80
 

@@ -1,4 +1,5 @@
-"""The optimisation's convergence figure: objective against SLSQP iteration for every start, per environment.
+"""The optimisation's convergence figure: objective against SLSQP iteration for every start, one panel
+per design (rows: peak, band_mean, worst_case) and environment (columns).
 """
 
 from __future__ import annotations
@@ -10,16 +11,23 @@ from matplotlib.figure import Figure
 from pidpipe.design.optimisation import OptimisationResult
 from pidpipe.figures.common import CEQ_LABEL, RC_PARAMS, save_figure
 
+#: What each design's objective is, for titles and axes.
+OBJECTIVES = {"peak": "total C_eq at the best point", "band_mean": "band-mean total C_eq",
+              "worst_case": "band-minimum total C_eq"}
+
 
 def plot_convergence(results: list[OptimisationResult], stem: str | Path | None = None) -> Figure:
-    """Total C_eq against SLSQP iteration for every start, one panel per environment.
+    """Each design's objective against SLSQP iteration for every start, a panel per design and
+    environment.
 
     Grey: starts that ended elsewhere (or did not converge); blue: starts that reached the
-    global optimum; red, thick: the best start.
+    global optimum; red, thick: the best start. A design whose band reaches G <= 1 says so in
+    its title.
 
     Parameters
     ----------
     results : list of OptimisationResult
+        Any designs of any environments (:func:`pidpipe.design.designs.optimise_designs`).
     stem : str or Path, optional
         If given, save as ``<stem>.png`` and ``<stem>.pdf``.
 
@@ -29,11 +37,13 @@ def plot_convergence(results: list[OptimisationResult], stem: str | Path | None 
     """
     import matplotlib as mpl
 
+    environments = list(dict.fromkeys(res.environment.name for res in results)) or [""]
+    kinds = list(dict.fromkeys(res.kind for res in results)) or ["peak"]
     with mpl.rc_context(RC_PARAMS):
-        fig = Figure(figsize=(4.8 * max(len(results), 1), 4.2), layout="constrained")
-        axes = fig.subplots(1, max(len(results), 1), squeeze=False)[0]
-        for ax, res in zip(axes, results):
-            _draw_convergence(ax, res)
+        fig = Figure(figsize=(5.2 * len(environments), 3.9 * len(kinds)), layout="constrained")
+        axes = fig.subplots(len(kinds), len(environments), squeeze=False)
+        for res in results:
+            _draw_convergence(axes[kinds.index(res.kind)][environments.index(res.environment.name)], res)
         if stem is not None:
             save_figure(fig, stem)
     return fig
@@ -55,8 +65,10 @@ def _draw_convergence(ax, res: OptimisationResult) -> None:
     ax.plot([], [], color="0.6", label="starts ending elsewhere")
     d = res.design
     clipped = " (band clipped to domain)" if res.clipped else ""
-    ax.set_title(f"{res.environment.name}{clipped}\nr = {d.fill_pct:.1f} %, n_c = {d.n_cells}, "
-                 f"total C_eq = {d.total_ceq_ns_m:.3g} N·s/m")
+    regime = "\nWARNING: band reaches G ≤ 1 (contact-model regime)" if res.regime_warning else ""
+    ax.set_title(f"{res.environment.name}{clipped}: {res.kind}\nr = {d.fill_pct:.1f} %, "
+                 f"n_c = {d.n_cells}, {OBJECTIVES[res.kind]} = {d.total_ceq_ns_m:.3g} N·s/m{regime}",
+                 color="C3" if regime else "black")
     ax.set_xlabel("SLSQP iteration")
-    ax.set_ylabel("total " + CEQ_LABEL + " of filled cells")
+    ax.set_ylabel(f"{OBJECTIVES[res.kind]}, " + CEQ_LABEL)
     ax.legend(loc="lower right", framealpha=0.8)

@@ -12,11 +12,9 @@ from pidpipe.figures.common import RC_PARAMS, save_figure
 
 _VARIANT_MARKERS = ("o", "s", "D", "^", "v", "<", ">", "P", "X", "h", "p", "d", "8", "H")
 
-
 _VARIANT_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown",
                     "tab:pink", "tab:gray", "tab:olive", "tab:cyan", "navy", "darkgoldenrod",
                     "darkgreen", "maroon")
-
 
 #: Largest error drawn on a case panel, %: points beyond are pinned to the edge and labelled.
 FIDELITY_ERROR_CLIP_PCT = 100.0

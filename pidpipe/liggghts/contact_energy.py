@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pidpipe.cell.scene import CellScene
 from pidpipe.errors import ParseError
 from pidpipe.liggghts.decks import material_values
 from pidpipe.liggghts.parsing import CONTACT_COLUMNS, read_local_frames
@@ -54,7 +55,7 @@ class ContactElasticity:
     radius_eff_m: float
 
 
-def contact_elasticities(config: dict) -> dict[str, ContactElasticity]:
+def contact_elasticities(scene: CellScene) -> dict[str, ContactElasticity]:
     """E*, G* and R* of particle-particle and particle-wall contacts, as the deck gives them to LIGGGHTS.
 
     Taken from :func:`pidpipe.liggghts.decks.material_values`, so the fidelity's Young's modulus scale
@@ -65,7 +66,7 @@ def contact_elasticities(config: dict) -> dict[str, ContactElasticity]:
     dict
         ``{"particle_particle": ContactElasticity, "particle_wall": ContactElasticity}``.
     """
-    values = material_values(config)
+    values = material_values(scene)
     youngs, poisson = values["youngs_pa"], values["poisson"]
     radius = 0.5 * values["diameter_m"]
     particle = (youngs["particle"], poisson["particle"])
@@ -110,7 +111,7 @@ _ATOM_COLUMN = {"particle_particle": CONTACT_COLUMNS.index("id_a"),
                 "particle_wall": CONTACT_COLUMNS.index("id_c")}
 
 
-def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config: dict,
+def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, scene: CellScene,
                             expected_steps: np.ndarray, cell_of_atom: np.ndarray) -> np.ndarray:
     """Elastic energy in each cell's contacts at each cycle boundary, from the two contact dumps.
 
@@ -118,8 +119,8 @@ def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config
     ----------
     pair_path, wall_path : path
         The particle-particle and particle-wall ``dump local`` files of the shake deck.
-    config : dict
-        The validated config the deck was rendered from.
+    scene : CellScene
+        The scene the deck was rendered from.
     expected_steps : ndarray of int, shape (n_boundaries,)
         The steps of the cycle boundaries, from step 0 (those of the energy file).
     cell_of_atom : ndarray of int, shape (n_atoms,)
@@ -139,7 +140,7 @@ def boundary_elastic_energy(pair_path: str | Path, wall_path: str | Path, config
     """
     expected_steps = np.asarray(expected_steps, dtype=np.int64)
     cell_of_atom = np.asarray(cell_of_atom, dtype=np.int64)
-    elasticity = contact_elasticities(config)
+    elasticity = contact_elasticities(scene)
     n_cells = int(cell_of_atom.max()) + 1
     energy = np.zeros((expected_steps.size, n_cells))
     for path, kind in ((pair_path, "particle_particle"), (wall_path, "particle_wall")):

@@ -18,7 +18,7 @@ import jinja2
 import numpy as np
 
 from pidpipe.cell.geometry import HexCell
-from pidpipe.config import pair_properties, particle_properties, wall_properties
+from pidpipe.cell.scene import CellScene
 from pidpipe.errors import ConfigError
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
@@ -74,33 +74,27 @@ def template_environment() -> jinja2.Environment:
     return env
 
 
-def material_values(config: dict) -> dict:
+def material_values(scene: CellScene) -> dict:
     """Contact and material values of atom types 1 (particles) and 2 (walls).
 
     Young's moduli carry the fidelity's softening factor; with friction off every friction
-    coefficient is 0. The wall-wall pair never touches anything but LIGGGHTS needs a value:
-    the configured one if present, else the particle-wall one.
+    coefficient is 0. The wall-wall pair never touches anything but LIGGGHTS needs a value
+    (:class:`~pidpipe.config.settings.Materials`).
+
+    Parameters
+    ----------
+    scene : CellScene
     """
-    particle, wall = particle_properties(config), wall_properties(config)
-    fidelity = config["fidelity"]
-    pp = pair_properties(config, config["particle_material"], config["particle_material"])
-    pw = pair_properties(config, config["particle_material"], config["wall_material"])
-    try:
-        ww = pair_properties(config, config["wall_material"], config["wall_material"])
-    except ConfigError:
-        ww = pw
-    friction_on = 1.0 if fidelity["friction"] else 0.0
-    scale = fidelity["youngs_modulus_scale"]
+    particle, wall = scene.particle, scene.wall
+    pairs = {kind: scene.pair(kind) for kind in ("pp", "pw", "ww")}
     return {
-        "youngs_pa": {"particle": particle["youngs_modulus_pa"] * scale,
-                      "wall": wall["youngs_modulus_pa"] * scale},
-        "poisson": {"particle": particle["poisson_ratio"], "wall": wall["poisson_ratio"]},
-        "restitution": {"pp": pp["restitution"], "pw": pw["restitution"], "ww": ww["restitution"]},
-        "friction": {"pp": pp["friction"] * friction_on, "pw": pw["friction"] * friction_on,
-                     "ww": ww["friction"] * friction_on},
-        "diameter_m": 2.0 * particle["radius_m"],
-        "density_kg_m3": particle["density_kg_m3"],
-        "rotation": bool(fidelity["rotation"]),
+        "youngs_pa": {"particle": particle.youngs_modulus_pa, "wall": wall.youngs_modulus_pa},
+        "poisson": {"particle": particle.poisson_ratio, "wall": wall.poisson_ratio},
+        "restitution": {kind: pair.restitution for kind, pair in pairs.items()},
+        "friction": {kind: pair.friction for kind, pair in pairs.items()},
+        "diameter_m": 2.0 * particle.radius_m,
+        "density_kg_m3": particle.density_kg_m3,
+        "rotation": scene.fidelity.rotation,
         "gravity_m_s2": STANDARD_GRAVITY_M_S2,
     }
 
@@ -132,13 +126,13 @@ def render(template: str, values: dict) -> str:
         raise ConfigError(f"deck template {template} needs a value that was not given: {exc}") from None
 
 
-def common_values(config: dict, positions_m: np.ndarray, timestep_s: float, mesh_file: str,
+def common_values(scene: CellScene, positions_m: np.ndarray, timestep_s: float, mesh_file: str,
                   case_label: str, deck_kind: str, box: dict, thermo_every: int) -> dict:
     """Values every deck needs (materials, particles, mesh, box, timestep)."""
-    radius = particle_properties(config)["radius_m"]
+    radius = scene.radius_m
     positions = np.asarray(positions_m, dtype=float).reshape(-1, 3)
     return {
-        **material_values(config),
+        **material_values(scene),
         "deck_kind": deck_kind,
         "case_label": case_label,
         "box": box,
@@ -147,4 +141,5 @@ def common_values(config: dict, positions_m: np.ndarray, timestep_s: float, mesh
         "positions_m": positions.tolist(),
         "mesh_file": mesh_file,
         "thermo_every": thermo_every,
+        "store_wall_force": False,
     }

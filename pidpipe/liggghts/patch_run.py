@@ -19,14 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from pidpipe.cell.packing import Packing, cell_from_config, check_packing
+from pidpipe.cell.packing import Packing, check_packing
 from pidpipe.cell.patch import (
     patch_box,
     place_in_cells,
     spheres_in_own_cells,
     write_patch_stl,
 )
-from pidpipe.config import particle_properties
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.liggghts.decks import common_values, render
 from pidpipe.liggghts.parsing import (
     SPHERE_COLUMNS,
@@ -38,38 +39,31 @@ from pidpipe.liggghts.parsing import (
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import per_cell_ceq
 from pidpipe.measurement.statistics import summarise_cycles
-from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 
 POWER_FILE = "power.txt"
 
-
 ENERGY_FILE = "energy.txt"
-
 
 SPHERE_FILE = "spheres.dump"
 
-
 MESH_FILE = "patch.stl"
 
-
 CONTAINMENT_TOL_RADII = 0.02
-
-
 """A sphere counts as inside its cell if it pokes through no wall by more than this many radii
 (contact overlaps are micrometres; a sphere in the wrong cell is off by more than a radius)."""
 
 
-def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: list[Packing],
+def render_patch_deck(settings: ShakeSettings, freq_hz: float, accel_g: float, packings: list[Packing],
                       centres_m: np.ndarray, workdir: Path, label: str,
                       flip_normals: bool = False) -> dict:
     """Write the patch mesh and deck; return the run's plan.
 
     Parameters
     ----------
-    config : dict
-        Validated config (fidelity, materials, cell).
+    settings : ShakeSettings
+        The cell, materials, fidelity and sampling (measured cycles, SEM blocks).
     freq_hz, accel_g : float
         Excitation frequency (Hz) and acceleration amplitude (g).
     packings : list of Packing
@@ -88,16 +82,16 @@ def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: li
         ``deck``, ``period_s``, ``cycles``, ``transient_cycles``, ``timestep`` (TimestepPlan),
         ``amplitude_m``, ``cell_index`` (ndarray of the cell of each sphere, in atom-id order).
     """
-    cell = cell_from_config(config)
-    radius = particle_properties(config)["radius_m"]
-    plan = plan_timestep(config, freq_hz)
+    scene = CellScene.of(settings)
+    cell, radius = scene.cell, scene.radius_m
+    plan = scene.timestep(freq_hz)
     omega = 2.0 * math.pi * freq_hz
     amplitude = displacement_amplitude_m(freq_hz, accel_g)
-    transient = transient_cycles_for(config, freq_hz)
-    cycles = transient + int(config["fidelity"]["measured_cycles"])
+    transient = settings.sampling.transient_cycles_at(freq_hz)
+    cycles = transient + settings.sampling.measured_cycles
     positions, cell_index = place_in_cells([p.centres() for p in packings], centres_m)
     write_patch_stl(workdir / MESH_FILE, cell, centres_m, flip_normals=flip_normals)
-    values = common_values(config, positions, plan.timestep_s, MESH_FILE, label, "patch",
+    values = common_values(scene, positions, plan.timestep_s, MESH_FILE, label, "patch",
                            patch_box(cell, centres_m, cell.lid_z_m, 2.0 * amplitude, radius),
                            thermo_every=plan.steps_per_cycle * max(1, cycles // 10))
     values.update(amplitude_m=amplitude, period_s=1.0 / freq_hz, omega_rad_s=omega,
@@ -111,14 +105,14 @@ def render_patch_deck(config: dict, freq_hz: float, accel_g: float, packings: li
             "timestep": plan, "amplitude_m": amplitude, "cell_index": cell_index}
 
 
-def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packing],
+def run_patch(settings: ShakeSettings, freq_hz: float, accel_g: float, packings: list[Packing],
               centres_m: np.ndarray, workdir: str | Path, label: str,
               flip_normals: bool = False) -> dict:
     """Shake a patch of cells in one LIGGGHTS run; per-cell and whole-patch E_d and C_eq.
 
     Parameters
     ----------
-    config, freq_hz, accel_g, packings, centres_m, label, flip_normals
+    settings, freq_hz, accel_g, packings, centres_m, label, flip_normals
         As :func:`render_patch_deck`.
     workdir : path
         The run's own folder.
@@ -147,19 +141,19 @@ def run_patch(config: dict, freq_hz: float, accel_g: float, packings: list[Packi
         check_packing(packing, f"{label} cell {index}")
     for stale in (POWER_FILE, ENERGY_FILE, SPHERE_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_patch_deck(config, freq_hz, accel_g, packings, centres_m, workdir, label,
+    plan = render_patch_deck(settings, freq_hz, accel_g, packings, centres_m, workdir, label,
                              flip_normals)
     engine = run_deck(plan["deck"], label)
-    cell = cell_from_config(config)
+    cell = CellScene.of(settings).cell
     total = read_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"], plan["cycles"])
     steps, frames = read_dump_frames(workdir / SPHERE_FILE, len(SPHERE_COLUMNS))
     per_cell = cell_cycles(steps, frames, plan["cell_index"], plan["period_s"], plan["cycles"],
                            STANDARD_GRAVITY_M_S2, cell.floor_z_m)
-    radius = particle_properties(config)["radius_m"]
+    radius = CellScene.of(settings).radius_m
     contained = [spheres_in_own_cells(cell, centres_m, frame[:, 1:4], plan["cell_index"], radius,
                                       CONTAINMENT_TOL_RADII * radius) for frame in frames]
     transient = plan["transient_cycles"]
-    block = int(config["fidelity"]["sem_block_cycles"])
+    block = settings.sampling.sem_block_cycles
     cells = [{"cell": index, "seed": packing.seed, "n_spheres": packing.n_spheres,
               **summarise_cycles(series.dissipated_j[transient:], freq_hz, accel_g, 1, block),
               "energy_drift_fraction": energy_drift(series, transient)}

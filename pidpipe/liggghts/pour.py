@@ -25,52 +25,35 @@ from pidpipe.cell.packing import (
     MAX_FURTHER_SETTLING,
     SETTLED_SPEED_M_S,
     Packing,
-    cell_from_config,
     random_start,
 )
-from pidpipe.config import particle_properties, spheres_for_fill
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import PourSettings
 from pidpipe.errors import EngineError
 from pidpipe.liggghts.decks import common_values, render, simulation_box
 from pidpipe.liggghts.parsing import read_dump_atoms
 from pidpipe.liggghts.process import run_deck
-from pidpipe.measurement.timestep import plan_timestep
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 
 TAP_FREQ_HZ = 100.0
-
-
 """Frequency of the tapping that compacts a fresh pour, Hz."""
 
-
 TAP_ACCEL_G = 10.0
-
-
 """Acceleration amplitude of the tapping, in g (the top of the reference grid)."""
 
-
 TAP_CYCLES = 20
-
-
 """Cycles of tapping. Without it a deposited pile collapses during measured cycles: measured
 at 500 Hz, 5 g, 11 spheres, the potential energy fell by 8 cycles' worth of dissipation
 between cycles 35 and 42."""
 
 
-
-
-"""Chunks of ``fidelity.settle_time_s`` that a pour not settled after the configured settle time
-goes on settling, at most. Of 441 pours of the default config at 50 % fill (seeds
-fidelity.seed + 0 .. 440) two had not settled after 0.15 s (fastest sphere 5.5 and 7.7 mm/s);
-one further chunk settled both (below 0.1 mm/s)."""
-
-
-def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> Packing:
+def pour(settings: PourSettings, fill_pct: float, replicate: int, workdir: str | Path) -> Packing:
     """Pour the spheres of a fill level into the cell with LIGGGHTS and return the settled packing.
 
     Parameters
     ----------
-    config : dict
-        Validated config.
+    settings : PourSettings
+        The cell, materials, fidelity, fill definition and pouring settings.
     fill_pct : float
         Fill fraction, percent.
     replicate : int
@@ -80,20 +63,20 @@ def pour(config: dict, fill_pct: float, replicate: int, workdir: str | Path) -> 
     """
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
-    cell = cell_from_config(config)
-    radius = particle_properties(config)["radius_m"]
-    n_spheres = spheres_for_fill(config, fill_pct)
-    seed = int(config["fidelity"]["seed"]) + int(replicate)
+    scene = CellScene.of(settings)
+    cell, radius = scene.cell, scene.radius_m
+    n_spheres = settings.fill.spheres(fill_pct)
+    seed = settings.pouring.seed + int(replicate)
     start = random_start(cell, n_spheres, radius, seed)
     top_z = max(cell.lid_z_m, float(start[:, 2].max()) + 4.0 * radius)
     write_cell_stl(workdir / "pour_cell.stl", cell, top_z_m=top_z, closed=False)
     # One timestep for settling and tapping: a whole number of steps per tapping cycle.
-    plan = plan_timestep(config, TAP_FREQ_HZ)
-    target_dt = config["fidelity"]["timestep_rayleigh_fraction"] * plan.rayleigh_time_s
-    steps = max(1, math.ceil(float(config["fidelity"]["settle_time_s"]) / target_dt))
+    plan = scene.timestep(TAP_FREQ_HZ)
+    target_dt = settings.fidelity.timestep_rayleigh_fraction * plan.rayleigh_time_s
+    steps = max(1, math.ceil(settings.pouring.settle_time_s / target_dt))
     label = f"pour_r{fill_pct:g}pct_rep{replicate}"
     amplitude = displacement_amplitude_m(TAP_FREQ_HZ, TAP_ACCEL_G)
-    values = common_values(config, start, plan.timestep_s, "pour_cell.stl", label, "pack",
+    values = common_values(scene, start, plan.timestep_s, "pour_cell.stl", label, "pack",
                            simulation_box(cell, top_z, 2.0 * amplitude, radius),
                            thermo_every=max(1, steps // 10))
     values.update(settle_steps=steps, output_file="settled.dump", further_settling=[], tap_amplitude_m=amplitude,
@@ -159,17 +142,17 @@ def _settle_further(deck: Path, values: dict, steps: int, first: np.ndarray,
     return atoms, chunks
 
 
-def replicate_packings(config: dict, fill_pct: float, replicates: int, folder: str | Path,
+def replicate_packings(settings: PourSettings, fill_pct: float, replicates: int, folder: str | Path,
                        workers: int = 1) -> tuple[list[Packing], dict[int, float]]:
     """The packings of replicates 0 .. replicates-1 of a fill, poured as the campaign pours them.
 
     Each is :func:`pidpipe.liggghts.pour.pour` (seed = ``fidelity.seed`` + replicate), kept in
     ``folder`` as ``r<fill>pct_rep<k>.json`` and reused on the next call when its seed and
-    sphere count still match the config.
+    sphere count still match the settings.
 
     Parameters
     ----------
-    config : dict
+    settings : PourSettings
     fill_pct : float
     replicates : int
     folder : path
@@ -187,13 +170,12 @@ def replicate_packings(config: dict, fill_pct: float, replicates: int, folder: s
 
     from pidpipe.cases import format_number
     from pidpipe.cell.packing import load_packing
-    from pidpipe.config import spheres_for_fill
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / f"r{format_number(fill_pct)}pct_rep{k}.json" for k in range(replicates)]
-    wanted = spheres_for_fill(config, fill_pct)
-    seed = int(config["fidelity"]["seed"])
+    wanted = settings.fill.spheres(fill_pct)
+    seed = settings.pouring.seed
 
     def usable(k: int) -> bool:
         if not paths[k].is_file():
@@ -207,7 +189,7 @@ def replicate_packings(config: dict, fill_pct: float, replicates: int, folder: s
                 if cpu_path.is_file() else {})
     if missing:
         with ProcessPoolExecutor(max_workers=max(1, int(workers))) as pool:
-            jobs = [(config, fill_pct, k, str(paths[k])) for k in missing]
+            jobs = [(settings, fill_pct, k, str(paths[k])) for k in missing]
             for k, cpu in zip(missing, pool.map(_pour_one, jobs)):
                 pour_cpu[k] = cpu
                 cpu_path.write_text(json.dumps(pour_cpu))
@@ -222,13 +204,11 @@ def _pour_one(job: tuple) -> float:
     import tempfile
 
     from pidpipe.cell.packing import save_packing
-    from pidpipe.liggghts.pour import pour
-
-    config, fill_pct, replicate, path = job
+    settings, fill_pct, replicate, path = job
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     scratch = tempfile.mkdtemp(prefix=f"pour_rep{replicate}_")
     try:
-        save_packing(pour(config, fill_pct, replicate, scratch), path)
+        save_packing(pour(settings, fill_pct, replicate, scratch), path)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)

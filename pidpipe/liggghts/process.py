@@ -81,6 +81,18 @@ def screen_version(screen_text: str) -> str:
     return match.group(1) if match else "unknown"
 
 
+#: Variables of a SLURM job step that make Open MPI take a process for one rank of an ``srun``
+#: launch and look for SLURM's PMI server; without one (SLURM's default ``MpiDefault=none``)
+#: LIGGGHTS aborts in MPI_Init ("OPAL ERROR: Unreachable"). LIGGGHTS runs as one process here,
+#: also inside the ``srun`` that runs every job of the SLURM executor plugin.
+SLURM_STEP_VARIABLES = ("SLURM_STEP_ID", "SLURM_STEPID")
+
+
+def liggghts_environment(environ) -> dict[str, str]:
+    """The environment LIGGGHTS runs in: ``environ`` without :data:`SLURM_STEP_VARIABLES`."""
+    return {key: value for key, value in environ.items() if key not in SLURM_STEP_VARIABLES}
+
+
 def run_deck(deck_path: str | Path, case_label: str, timeout_s: float | None = None) -> EngineRun:
     """Run a rendered deck with LIGGGHTS in the deck's folder.
 
@@ -104,8 +116,8 @@ def run_deck(deck_path: str | Path, case_label: str, timeout_s: float | None = N
     command = [find_liggghts(), "-in", deck_path.name, "-echo", "screen", "-log", LOG_FILE]
     if shutil.which("stdbuf"):
         command = ["stdbuf", "-o0", "-e0", *command]
-    env = {**os.environ, "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_btl_vader_single_copy_mechanism": "none"}
+    env = {**liggghts_environment(os.environ), "OMPI_ALLOW_RUN_AS_ROOT": "1",
+           "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1", "OMPI_MCA_btl_vader_single_copy_mechanism": "none"}
     start = time.perf_counter()
     cpu_before = _children_cpu_s()
     with open(screen, "w", encoding="utf-8") as screen_handle:

@@ -16,25 +16,28 @@ from typing import Sequence
 
 import numpy as np
 
-from pidpipe.cases import CaseSpec, regime
+from pidpipe.cases import CaseSpec
 from pidpipe.cell.layout import place_packings, side_by_side, write_cells_mesh
-from pidpipe.cell.packing import Packing, cell_from_config, check_packing
+from pidpipe.cell.packing import Packing, check_packing
 from pidpipe.cell.patch import patch_box
-from pidpipe.config import particle_properties
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.inspection import MovieSettings
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.liggghts.contact_energy import boundary_elastic_energy
 from pidpipe.liggghts.decks import common_values, render
+from pidpipe.liggghts.inspection import inspection_record
+from pidpipe.liggghts.motion import ENERGY_FILE as MOTION_ENERGY_FILE
+from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
+from pidpipe.liggghts.motion import motion_deck_values
+from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
+from pidpipe.liggghts.movie import movie_deck_values
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.steady_state import assess_steady_state
-from pidpipe.measurement.timestep import (
-    HERTZ_FRACTION_LIMIT,
-    TIMESTEP_CHECKS_PER_CYCLE,
-    plan_timestep,
-    transient_cycles_for,
-)
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2, sphere_mass
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
+from pidpipe.physics.timestep import HERTZ_FRACTION_LIMIT, TIMESTEP_CHECKS_PER_CYCLE
 
 POWER_FILE = "power.txt"
 ENERGY_FILE = "energy.txt"
@@ -54,46 +57,51 @@ Each cell's wall work is from the force on its spheres (their total force plus t
 the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
 
 
-def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
-                      workdir: Path) -> dict:
+def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
+                      packings: Packing | Sequence[Packing], workdir: Path,
+                      movie: MovieSettings | None = None) -> dict:
     """Write the cells' wall mesh and the shake deck of a case; return the run's plan.
 
     Parameters
     ----------
-    config : dict
-        Validated config.
+    settings : ShakeSettings
+        The cell, materials, fidelity and sampling of the case.
     case : CaseSpec
     packings : Packing or sequence of Packing
         One packing per cell; several cells are laid out side by side
-        (:mod:`pidpipe.replicate_cells`).
+        (:mod:`pidpipe.cell.layout`).
     workdir : Path
+    movie : MovieSettings, optional
+        Dump a movie (:mod:`pidpipe.liggghts.movie`); off if None. The bed's motion within the
+        cycle is sampled as ``settings.motion`` says (:mod:`pidpipe.liggghts.motion`; off if
+        None). With both off the deck is the plain shake deck.
 
     Returns
     -------
     dict
         ``deck``, ``period_s``, ``steps_per_cycle``, ``cycles``, ``timestep`` (a TimestepPlan),
-        ``amplitude_m``, ``layout`` (a CellLayout).
+        ``amplitude_m``, ``layout`` (a CellLayout), ``scene`` (the CellScene), ``cells``,
+        ``motion`` and ``movie`` (the deck's values of each, or None).
     """
     packings = as_packing_list(packings)
-    cell = cell_from_config(config)
-    fidelity = config["fidelity"]
-    plan = plan_timestep(config, case.freq_hz)
+    scene = CellScene.of(settings)
+    cell = scene.cell
+    plan = scene.timestep(case.freq_hz)
     period = 1.0 / case.freq_hz
     omega = 2.0 * math.pi * case.freq_hz
     amplitude = displacement_amplitude_m(case.freq_hz, case.accel_g)
-    cycles = transient_cycles_for(config, case.freq_hz) + int(fidelity["measured_cycles"])
-    radius = particle_properties(config)["radius_m"]
+    cycles = settings.sampling.transient_cycles_at(case.freq_hz) + settings.sampling.measured_cycles
+    radius = scene.radius_m
     layout = side_by_side(cell, [p.n_spheres for p in packings], radius)
     write_cells_mesh(workdir / MESH_FILE, cell, layout)
     centres = [p.centres() for p in packings]
-    values = common_values(config, place_packings(layout, centres), plan.timestep_s, MESH_FILE,
+    values = common_values(scene, place_packings(layout, centres), plan.timestep_s, MESH_FILE,
                            case.case_id, "shake",
                            patch_box(cell, layout.offsets_m, cell.lid_z_m, 2.0 * amplitude, radius),
                            thermo_every=plan.steps_per_cycle * max(1, cycles // 10))
     # Equal spheres: a cell's centre of mass is the mean centre. Potential energy is measured
     # from its starting height so that the 6 digits fix ave/time writes resolve its changes.
-    particle = particle_properties(config)
-    mass_kg = sphere_mass(particle["radius_m"], particle["density_kg_m3"])
+    mass_kg = sphere_mass(scene.particle.radius_m, scene.particle.density_kg_m3)
     cells = [{"group": f"cell{index}", "first_atom_id": first, "last_atom_id": last,
               "potential_reference_z_m": float(np.mean(c[:, 2])),
               "weight_n": len(c) * mass_kg * STANDARD_GRAVITY_M_S2}
@@ -107,12 +115,21 @@ def render_shake_deck(config: dict, case: CaseSpec, packings: Packing | Sequence
                   power_file=POWER_FILE, energy_file=ENERGY_FILE,
                   pair_contact_file=PAIR_CONTACT_FILE, wall_contact_file=WALL_CONTACT_FILE,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
-                  rayleigh_fraction_limit=fidelity["timestep_rayleigh_fraction"] * (1.0 + 1e-6),
+                  rayleigh_fraction_limit=settings.fidelity.timestep_rayleigh_fraction * (1.0 + 1e-6),
                   hertz_fraction_limit=HERTZ_FRACTION_LIMIT)
+    motion = settings.motion
+    values.update(
+        motion=None if motion is None else motion_deck_values(
+            motion, plan.steps_per_cycle, cell, radius, len(cells)),
+        movie=None if movie is None else movie_deck_values(
+            movie, plan.steps_per_cycle, cycles, workdir),
+        store_wall_force=motion is not None)
     deck = workdir / "shake.lmp"
     deck.write_text(render("shake.lmp.j2", values), encoding="utf-8")
     return {"deck": deck, "period_s": period, "cycles": cycles, "timestep": plan,
-            "steps_per_cycle": plan.steps_per_cycle, "amplitude_m": amplitude, "layout": layout}
+            "steps_per_cycle": plan.steps_per_cycle, "amplitude_m": amplitude, "layout": layout,
+            "scene": scene, "cells": cells, "motion": values["motion"], "movie": values["movie"]}
+
 
 
 def as_packing_list(packings: Packing | Sequence[Packing]) -> list[Packing]:
@@ -123,10 +140,9 @@ def as_packing_list(packings: Packing | Sequence[Packing]) -> list[Packing]:
     return listed
 
 
-def containment_flags(config: dict, series: CycleSeries, amplitude_m: float) -> list[str]:
+def containment_flags(scene: CellScene, series: CycleSeries, amplitude_m: float) -> list[str]:
     """Flags for spheres found outside the moving cell at any cycle end (escaped or tunnelled)."""
-    cell = cell_from_config(config)
-    radius = particle_properties(config)["radius_m"]
+    cell, radius = scene.cell, scene.radius_m
     flags = []
     if np.any(series.lowest_z_m < cell.floor_z_m - 2.0 * amplitude_m + 0.5 * radius):
         flags.append("sphere_below_floor")
@@ -140,20 +156,25 @@ def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
     return ["timestep_check"] if warnings else []
 
 
-def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing],
-             workdir: str | Path) -> dict:
+def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
+             workdir: str | Path, movie: MovieSettings | None = None,
+             movie_dir: str | Path | None = None) -> dict:
     """Shake one case in LIGGGHTS and return its record.
 
     Parameters
     ----------
-    config : dict
-        Validated config.
+    settings : ShakeSettings
+        The cell, materials, fidelity and sampling of the case.
     case : CaseSpec
     packings : Packing or sequence of Packing
         The settled packing of the case's fill and replicate; or one per cell, for k cells side
         by side in one run (:mod:`pidpipe.replicate_cells`), whose mean cell the record reports.
     workdir : path
         The case's own folder (deck, meshes, LIGGGHTS output and screen).
+    movie : MovieSettings, optional
+        Also write a ParaView movie of the run's last cycles into ``movie_dir``
+        (default ``workdir/movie``); off if None.
+    movie_dir : path, optional
 
     Returns
     -------
@@ -166,24 +187,26 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
     packings = as_packing_list(packings)
     for index, packing in enumerate(packings):
         check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
-    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE):
+    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
+                  MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_shake_deck(config, case, packings, workdir)
+    plan = render_shake_deck(settings, case, packings, workdir, movie=movie)
     engine = run_deck(plan["deck"], case.case_id)
-    cells, series, ledger_mismatch = read_cell_series(config, plan, workdir)
-    fidelity = config["fidelity"]
-    configured_transient = transient_cycles_for(config, case.freq_hz)
+    cells, series, ledger_mismatch = read_cell_series(plan["scene"], plan, workdir)
+    fidelity, sampling = settings.fidelity, settings.sampling
+    configured_transient = sampling.transient_cycles_at(case.freq_hz)
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,
-                                 int(fidelity["sem_block_cycles"]))
+                                 sampling.sem_block_cycles)
     transient = steady.transient_cycles
     summary = summarise_cells([cell.dissipated_j[transient:] for cell in cells], case.freq_hz,
-                              case.accel_g, config["geometry"]["coupon_n_cells"],
-                              fidelity["sem_block_cycles"])
+                              case.accel_g, settings.coupon_n_cells, sampling.sem_block_cycles)
     for cell_summary, cell, packing in zip(summary["cells"], cells, packings):
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m,
                             dissipated_j=cell.dissipated_j.tolist())
-    flags = (containment_flags(config, series, plan["amplitude_m"])
+    inspection = inspection_record(plan, workdir, case.accel_g, packings, transient,
+                                   plan["scene"].cell, settings.motion, movie, movie_dir)
+    flags = (containment_flags(plan["scene"], series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))
     return {
@@ -199,20 +222,20 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
         "flags": flags,
         **summary,
         **steady.as_record(),
-        "regime": regime(case.accel_g),
+        **inspection,
         "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()) / len(cells),
         "ledger_mismatch_of_gross_work": ledger_mismatch,
         "cycles": series.as_record(),
         "fidelity": {
             **plan["timestep"].as_record(),
-            "timestep_rayleigh_fraction_config": fidelity["timestep_rayleigh_fraction"],
-            "youngs_modulus_scale": fidelity["youngs_modulus_scale"],
+            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
+            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
             "transient_cycles": transient,
             "transient_cycles_configured": configured_transient,
-            "measured_cycles": int(fidelity["measured_cycles"]),
-            "sem_block_cycles": int(fidelity["sem_block_cycles"]),
-            "rotation": bool(fidelity["rotation"]),
-            "friction": bool(fidelity["friction"]),
+            "measured_cycles": sampling.measured_cycles,
+            "sem_block_cycles": sampling.sem_block_cycles,
+            "rotation": fidelity.rotation,
+            "friction": fidelity.friction,
             "cells_per_run": len(packings),
             "seed": packings[0].seed,
             "seeds": [packing.seed for packing in packings],
@@ -236,7 +259,7 @@ def run_case(config: dict, case: CaseSpec, packings: Packing | Sequence[Packing]
     }
 
 
-def read_cell_series(config: dict, plan: dict,
+def read_cell_series(scene: CellScene, plan: dict,
                      workdir: Path) -> tuple[list[CycleSeries], CycleSeries, float]:
     """Each cell's per-cycle balance, elastic energy included, from a shake run's output.
 
@@ -255,7 +278,7 @@ def read_cell_series(config: dict, plan: dict,
     boundaries = plan["steps_per_cycle"] * np.arange(plan["cycles"] + 1)
     cell_of_atom = layout.cell_of_atom()
     elastic = boundary_elastic_energy(workdir / PAIR_CONTACT_FILE, workdir / WALL_CONTACT_FILE,
-                                      config, boundaries, cell_of_atom=cell_of_atom)
+                                      scene, boundaries, cell_of_atom=cell_of_atom)
     cells, mesh = read_shake_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"],
                                     plan["cycles"], layout.n_cells, elastic_j=elastic)
     cells_work = np.sum([cell.wall_work_j for cell in cells], axis=0)

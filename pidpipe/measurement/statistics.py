@@ -68,8 +68,6 @@ def lag1_autocorrelation(series: np.ndarray) -> float:
 
 
 RHO_CAP = 0.99
-
-
 """Largest lag-1 autocorrelation the AR(1) correction uses (the SEM stays finite)."""
 
 

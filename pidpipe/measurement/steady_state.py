@@ -161,9 +161,25 @@ def assess_steady_state(dissipated_j: np.ndarray, energy_j: np.ndarray, configur
     p_value = halves_p_value(measured, block)
     if math.isfinite(p_value) and p_value < TREND_P_LIMIT:
         flags.append("not_stationary")
-    mean, sem = standard_error(measured, block)   # the SEM the record reports
-    if not math.isfinite(sem) or mean + NEGATIVE_SEMS * sem < 0.0:
-        flags.append("negative_dissipation" if math.isfinite(sem) else "not_resolved")
-    elif mean <= NOT_RESOLVED_SEMS * sem:
-        flags.append("not_resolved")
+    flags += sign_flags(*standard_error(measured, block))
     return SteadyState(transient, detected, drift, p_value, flags)
+
+
+SIGN_FLAGS = ("negative_dissipation", "not_resolved")
+"""The flags :func:`sign_flags` decides."""
+
+
+def sign_flags(mean: float, sem: float) -> list[str]:
+    """``negative_dissipation`` (below zero by more than :data:`NEGATIVE_SEMS` standard errors),
+    ``not_resolved`` (within :data:`NOT_RESOLVED_SEMS` of zero, or no finite SEM), or none.
+
+    Parameters
+    ----------
+    mean, sem : float
+        A mean dissipation (or C_eq) and its standard error, same unit.
+    """
+    if not math.isfinite(sem) or mean + NEGATIVE_SEMS * sem < 0.0:
+        return ["negative_dissipation" if math.isfinite(sem) else "not_resolved"]
+    if mean <= NOT_RESOLVED_SEMS * sem:
+        return ["not_resolved"]
+    return []

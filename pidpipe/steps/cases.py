@@ -11,9 +11,13 @@ still written. A missing LIGGGHTS binary or a packing that does not fit fails th
 
 from __future__ import annotations
 
+import functools
 import logging
+from pathlib import Path
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.inspection import MovieSettings
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, ParseError, PidpipeError
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -24,8 +28,61 @@ logger = logging.getLogger("pidpipe.campaign")
 ENGINE_ATTEMPTS = 2
 
 
+#: Cells beyond the pilot's: cell j of replicate q shakes packing EXTRA_PACKINGS_FROM + 1000 q + j
+#: of its fill (seed fidelity.seed + that index), shared by every case of that fill and replicate;
+#: above any pilot packing (replicates <= 100, cells_per_run <= 24) and below the next replicate's.
+EXTRA_PACKINGS_FROM = 10000
+EXTRA_PACKINGS_PER_REPLICATE = 1000
+
+
+def extra_packing_index(replicate: int, cell: int) -> int:
+    """Packing index of cell ``cell`` (counted from 0 over the case's cells) of a replicate."""
+    if not 0 <= cell < EXTRA_PACKINGS_PER_REPLICATE:
+        raise ValueError(f"cell {cell} of a case: 0 to {EXTRA_PACKINGS_PER_REPLICATE - 1} are allowed")
+    return EXTRA_PACKINGS_FROM + EXTRA_PACKINGS_PER_REPLICATE * int(replicate) + int(cell)
+
+
+def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
+                  folder: str | Path) -> list:
+    """The packings ``indices`` of a fill, poured on demand into ``folder`` and kept there.
+
+    A packing already in ``folder`` with the settings' seed and sphere count is reused; else it
+    is poured (:func:`pidpipe.liggghts.pour.pour`, seed ``fidelity.seed`` + index) and saved
+    atomically. A lock file per packing lets concurrent cases of the same fill pour it once;
+    the same seed gives the same packing, so which case pours it changes nothing.
+
+    Returns
+    -------
+    list of Packing
+    """
+    import fcntl
+
+    from pidpipe.cases import format_number
+    from pidpipe.cell.packing import load_packing, save_packing
+    from pidpipe.liggghts.pour import pour
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    wanted, seed = settings.fill.spheres(fill_pct), settings.pouring.seed
+    packings = []
+    for index in indices:
+        name = f"r{format_number(fill_pct)}pct_rep{index}"
+        path = folder / f"{name}.json"
+        with open(folder / f".{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            packing = load_packing(path) if path.is_file() else None
+            if packing is None or packing.seed != seed + index or packing.n_spheres != wanted:
+                packing = pour(settings, fill_pct, index, folder / "work" / name)
+                save_packing(packing, path)
+                logger.info("poured packing %s for a case's target: %d spheres, seed %d",
+                            name, packing.n_spheres, packing.seed)
+        packings.append(packing)
+    return packings
+
+
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
-                  workdir: str, log_path: str) -> dict:
+                  workdir: str, log_path: str, packing_pool: str | None = None,
+                  movie: dict | None = None) -> dict:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -34,7 +91,8 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     Parameters
     ----------
     config : dict
-        The case stage's config (:func:`stage_config`).
+        The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`),
+        parsed here into :class:`~pidpipe.config.settings.ShakeSettings`.
     case_id : str
     packing_paths : list of path
         The packings to shake (JSON), one per cell of the run (:func:`case_packing_ids`).
@@ -44,6 +102,12 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The case's folder for the deck, the mesh and LIGGGHTS' files.
     log_path : path
         The rule's log, named in a failure's message.
+    packing_pool : path, optional
+        Where the further packings of a case with a target are poured and shared
+        (:func:`pool_packings`); None: the case keeps its pilot's cells.
+    movie : dict, optional
+        ``frames_per_cycle``, ``cycles`` and ``directory``: also write the run's ParaView movie
+        there (``inspection.movie_cases``); empty or None: no movie.
 
     Returns
     -------
@@ -58,16 +122,37 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The packing does not fit or has not settled.
     """
     from pidpipe.cell.packing import load_packing
+    from pidpipe.cell.scene import CellScene
     from pidpipe.liggghts.shake import write_record
     from pidpipe.measurement.adaptive import run_to_target
+    from pidpipe.measurement.cost_model import load_cost_model
 
     case = CaseSpec.from_id(case_id)
-    run_case = case_runner(config)
+    settings = ShakeSettings.from_config(config)
+    plan = CellScene.of(settings).timestep(case.freq_hz)
+    run_case = case_runner(settings)
     packings = [load_packing(path) for path in packing_paths]
+
+    def new_packings(first: int, count: int) -> list:
+        indices = [extra_packing_index(case.replicate, cell) for cell in range(first, first + count)]
+        return pool_packings(PourSettings.from_config(config), case.fill_pct, indices, packing_pool)
+
+    shake = run_case
+    if movie and settings.engine == "liggghts":
+        shake = functools.partial(run_case, movie=MovieSettings(int(movie["frames_per_cycle"]),
+                                                               int(movie["cycles"])),
+                                  movie_dir=movie["directory"])
+    elif movie:
+        logger.warning("case %s: no movie: the movie is written from LIGGGHTS' dumps, and this "
+                       "campaign's engine is %s", case_id, settings.engine)
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(config, case, packings, workdir, run=run_case)
+            record = run_to_target(settings, case, packings, workdir, run=shake,
+                                   new_packings=new_packings if packing_pool else None,
+                                   cost_model=load_cost_model(settings.engine),
+                                   steps_per_cycle=plan.steps_per_cycle,
+                                   transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
@@ -86,19 +171,19 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         logger.error("%s", message)
         logger.error("the record %s is written with status failed so that the other cases and "
                      "the C_eq table go on; delete it to run the case again", record_path)
-        record = failed_record(config, case, packings[0].n_spheres,
+        record = failed_record(settings, case, packings[0].n_spheres,
                                [packing.seed for packing in packings], message)
         record["engine_attempts"] = ENGINE_ATTEMPTS
     write_record(record, record_path)
     return record
 
 
-def case_runner(config: dict):
+def case_runner(settings: ShakeSettings):
     """The function that shakes a case with the configured ``engine``.
 
     ``liggghts``: :func:`pidpipe.liggghts.shake.run_case` (LIGGGHTS must be installed);
     ``dem``: :func:`pidpipe.dem.case.run_dem_case` (numba must be installed). Both take
-    ``(config, case, packings, workdir)`` and return records with the same keys.
+    ``(settings, case, packings, workdir)`` and return records with the same keys.
 
     Raises
     ------
@@ -107,7 +192,7 @@ def case_runner(config: dict):
     PidpipeError
         numba is not installed (engine dem); the message names the fix.
     """
-    if config.get("engine", "liggghts") == "dem":
+    if settings.engine == "dem":
         try:
             from pidpipe.dem.case import run_dem_case
         except ImportError as exc:              # numba missing: the message names the fix
@@ -119,44 +204,44 @@ def case_runner(config: dict):
     return run_case
 
 
-def solver_name(config: dict) -> str:
+def solver_name(settings: ShakeSettings) -> str:
     """The ``solver`` a record of the configured engine names."""
-    if config.get("engine", "liggghts") == "dem":
+    if settings.engine == "dem":
         from pidpipe.dem.run import SOLVER_NAME
         return SOLVER_NAME
     return "liggghts"
 
 
-def failed_record(config: dict, case: CaseSpec, n_spheres: int, seeds: list[int],
+def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds: list[int],
                   message: str) -> dict:
     """The record of a case whose run failed: its coordinates, the settings it ran with, no values.
 
     ``seeds`` are those of its packings, one per cell of the run.
     """
-    from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
+    from pidpipe.cell.scene import CellScene
 
-    fidelity = config["fidelity"]
+    fidelity, sampling = settings.fidelity, settings.sampling
     seeds = [int(seed) for seed in seeds]
     nan = float("nan")
     return {
-        "solver": solver_name(config), "case_id": case.case_id, "freq_hz": case.freq_hz,
+        "solver": solver_name(settings), "case_id": case.case_id, "freq_hz": case.freq_hz,
         "accel_g": case.accel_g, "fill_pct": case.fill_pct, "replicate": case.replicate,
         "n_spheres": n_spheres, "status": "failed", "flags": [], "message": message,
         "ceq_coupon_ns_m": nan, "ceq_coupon_sem_ns_m": nan, "ceq_cell_ns_m": nan,
         "ceq_cell_sem_ns_m": nan, "ed_cycle_mean_j": nan, "ed_cycle_sem_j": nan, "n_cycles": 0,
         "fidelity": {
-            **plan_timestep(config, case.freq_hz).as_record(),
-            "timestep_rayleigh_fraction_config": fidelity["timestep_rayleigh_fraction"],
-            "youngs_modulus_scale": fidelity["youngs_modulus_scale"],
-            "transient_cycles": transient_cycles_for(config, case.freq_hz),
-            "measured_cycles": int(fidelity["measured_cycles"]),
-            "sem_block_cycles": int(fidelity["sem_block_cycles"]),
-            "rotation": bool(fidelity["rotation"]), "friction": bool(fidelity["friction"]),
+            **CellScene.of(settings).timestep(case.freq_hz).as_record(),
+            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
+            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
+            "transient_cycles": sampling.transient_cycles_at(case.freq_hz),
+            "measured_cycles": sampling.measured_cycles,
+            "sem_block_cycles": sampling.sem_block_cycles,
+            "rotation": fidelity.rotation, "friction": fidelity.friction,
             "cells_per_run": len(seeds),
             "seed": seeds[0],
             "seeds": seeds,
-            "engine": config.get("engine", "liggghts"),
+            "engine": settings.engine,
         },
-        "engine": {"name": config.get("engine", "liggghts"), "solver": solver_name(config)},
+        "engine": {"name": settings.engine, "solver": solver_name(settings)},
         "wall_time_s": nan,
     }

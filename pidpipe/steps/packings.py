@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.settings import PourSettings
 from pidpipe.errors import PackingError
 from pidpipe.files import write_atomic
 
@@ -26,7 +27,7 @@ def pour_packing(config: dict, fill_pct: float, replicate: int, packing_path: st
     from pidpipe.liggghts.pour import pour
 
     fill_pct, replicate = float(fill_pct), int(replicate)
-    packing = pour(config, fill_pct, replicate, workdir)
+    packing = pour(PourSettings.from_config(config), fill_pct, replicate, workdir)
     Path(packing_path).parent.mkdir(parents=True, exist_ok=True)
     save_packing(packing, packing_path)
     logger.info("packing r=%g %% replicate %d: %d spheres, seed %d, pile %.2f mm (lid %.2f mm), "

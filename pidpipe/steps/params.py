@@ -9,13 +9,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
-from pidpipe.config import budget_spheres, full_cell_spheres, validate_config
+from pidpipe.config import validate_config
+from pidpipe.config.settings import Budget
 from pidpipe.config.stages import sorted_keys
 from pidpipe.errors import ConfigError
 
 #: Snakemake wildcard constraint of a number in a case id (as written by ``format_number``).
 WILDCARD_NUMBER = NUMBER_PATTERN
-
 
 #: Snakemake wildcard constraint of a replicate index.
 WILDCARD_REPLICATE = r"[0-9]+"
@@ -40,6 +40,15 @@ def workflow_config(raw: dict) -> dict:
     return config
 
 
+def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
+    """The case ids of ``inspection.<key>`` (``movie_cases``, ``phase_figure_cases``) that are
+    cases of the campaign, and those that are not (ignored, so that a grid cut down for a quick
+    run keeps working; the workflow prints them)."""
+    known = {case.case_id for case in campaign_cases(config)}
+    listed = config["inspection"][key]
+    return ([c for c in listed if c in known], [c for c in listed if c not in known])
+
+
 def campaign_cases(config: dict) -> list[CaseSpec]:
     """Every case of the campaign: the grid times ``grid.replicates`` runs."""
     return grid_cases(config, replicates=int(config["grid"].get("replicates", 1)))
@@ -57,11 +66,27 @@ def campaign_packing_ids(config: dict) -> list[str]:
 
 
 def budget_params(config: dict) -> dict:
-    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N."""
-    return {"n_spheres": budget_spheres(config), "full_cell_spheres": full_cell_spheres(config),
-            "n_cells_coupon": int(config["geometry"]["coupon_n_cells"])}
+    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
+    return Budget.from_config(config).as_params()
 
 
 def environment_params(config: dict) -> list[dict]:
     """The operating environments as plain, key-sorted dicts."""
     return sorted_keys(config["environments"])
+
+
+def optimisation_params(config: dict) -> dict:
+    """The optimisation section without ``external_ceq_table`` (the table is the rule's input)."""
+    return sorted_keys({k: v for k, v in config["optimisation"].items() if k != "external_ceq_table"})
+
+
+#: The maps' uncertainty panels use at most this many of the bootstrap's draws (a standard
+#: deviation from 50 draws is good to about 10 % of itself; each draw costs a refit and a map).
+MAP_DRAWS = 50
+
+
+def map_uncertainty_params(config: dict) -> dict:
+    """Draws and seed of the maps' bootstrap spread: the first (at most :data:`MAP_DRAWS`) of
+    the optimum's draws, which the same seed redraws identically."""
+    bootstrap = config["optimisation"]["bootstrap"]
+    return {"draws": min(int(bootstrap["draws"]), MAP_DRAWS), "seed": int(bootstrap["seed"])}

@@ -9,6 +9,7 @@ import logging
 from pathlib import Path
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import PidpipeError
 from pidpipe.files import write_atomic
 
@@ -22,7 +23,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
     Parameters
     ----------
     config : dict
-        The case stage's config (:func:`stage_config`).
+        The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`).
     cases : list of dict
         ``{"freq_hz", "accel_g", "fill_pct"}`` each (``validation.cases``).
     packing_paths : list of path
@@ -39,7 +40,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
 
     specs = [CaseSpec(float(c["freq_hz"]), float(c["accel_g"]), float(c["fill_pct"])) for c in cases]
     packings = {Path(path).stem: load_packing(path) for path in packing_paths}
-    table = run_validation(config, specs, packings, workdir)
+    table = run_validation(ShakeSettings.from_config(config), specs, packings, workdir)
     write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
     shutil.copyfile(Path(workdir) / "validation.png", plot_path)
     logger.info("validation: %d of %d cases agree within 2 combined standard errors",
@@ -53,8 +54,8 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
     Parameters
     ----------
     config : dict
-        The case stage's config (:func:`pidpipe.config.stages.stage_config`); its fidelity
-        (adaptive cycles, cells per run) is the LIGGGHTS campaign's.
+        The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`),
+        parsed here; its fidelity (adaptive cycles, cells per run) is the LIGGGHTS campaign's.
     liggghts_record_path : path
         The campaign's record of the case (``results/cases/<case>.json``).
     packing_paths : list of path
@@ -85,7 +86,8 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
         raise PidpipeError(f"{liggghts_record_path} shook packings of seeds {seeds}, not "
                            f"{[p.seed for p in packings]}: rerun the campaign first")
     case = CaseSpec.from_id(liggghts["case_id"])
-    record = run_to_target(config, case, packings, Path(record_path).parent, run=run_dem_case)
+    record = run_to_target(ShakeSettings.from_config(config), case, packings,
+                           Path(record_path).parent, run=run_dem_case)
     write_record(record, record_path)
     logger.info("case %s: C_eq(cell) DEM %.4g +- %.2g, LIGGGHTS %.4g +- %.2g N*s/m; DEM %s%s",
                 case.case_id, record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"],

@@ -28,7 +28,9 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.cases import CaseSpec
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import validate_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 
 logger = logging.getLogger("pidpipe.studies.fidelity")
@@ -258,16 +260,15 @@ def plan_study(config: dict) -> StudyPlan:
                      float(study["error_target_fraction"]))
 
 
-def planned_steps(config: dict, case: CaseSpec) -> int:
-    """Time steps of a case's shaking run under a config (transient and measured cycles).
+def planned_steps(settings: ShakeSettings, case: CaseSpec) -> int:
+    """Time steps of a case's shaking run under its settings (transient and measured cycles).
 
     The run's cost is about proportional to it (cost ∝ cycles / (f dt)).
     """
-    from pidpipe.measurement.timestep import plan_timestep, transient_cycles_for
-
-    plan = plan_timestep(config, case.freq_hz)
-    cycles = transient_cycles_for(config, case.freq_hz) + int(config["fidelity"]["measured_cycles"])
-    return plan.steps_per_cycle * cycles
+    plan = CellScene.of(settings).timestep(case.freq_hz)
+    sampling = settings.sampling
+    return plan.steps_per_cycle * (sampling.transient_cycles_at(case.freq_hz)
+                                   + sampling.measured_cycles)
 
 
 # --------------------------------------------------------------------------------------------

@@ -19,14 +19,16 @@ CPU time against the number of cells.
 
 from __future__ import annotations
 
-import copy
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from pidpipe.cell.packing import Packing, cell_from_config
+from pidpipe.cell.packing import Packing
 from pidpipe.cell.patch import coupon_centres, ring_centres
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.patch_run import run_patch
 from pidpipe.studies.scene_stats import (
     packing_scatter,
@@ -45,23 +47,22 @@ ESTIMATE_CYCLES = (1, 2)
 """Transient and measured cycles of the run that estimates the coupon's cost."""
 
 
-def short_window(config: dict, transient: int, measured: int) -> dict:
-    """A copy of the config with a fixed window of cycles (no minimum transient time)."""
-    short = copy.deepcopy(config)
-    short["fidelity"].update(transient_cycles=int(transient), transient_min_time_s=0.0,
-                             measured_cycles=int(measured))
-    return short
+def short_window(settings: ShakeSettings, transient: int, measured: int) -> ShakeSettings:
+    """The settings with a fixed window of cycles (no minimum transient time)."""
+    return replace(settings, sampling=replace(settings.sampling, transient_cycles=int(transient),
+                                              transient_min_time_s=0.0,
+                                              measured_cycles=int(measured)))
 
 
-def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list[Packing],
+def run_scene_study(settings: ShakeSettings, freq_hz: float, accel_g: float, packings: list[Packing],
                     folder: str | Path, singles: int = 19, coupon: tuple[int, int] = (21, 21),
                     coupon_cpu_limit_s: float = 1200.0) -> dict:
     """Shake every scene of one case; keep each run's record as JSON in ``folder/records``.
 
     Parameters
     ----------
-    config : dict
-        Validated config (its fidelity is every scene's).
+    settings : ShakeSettings
+        Every scene's cell, materials, fidelity and sampling.
     freq_hz, accel_g : float
     packings : list of Packing
         Replicates 0, 1, ... of one fill; at least ``columns * rows`` of them.
@@ -82,10 +83,10 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
         raise ValueError(f"the study needs >= 7 singles and max(singles, 19, coupon cells) "
                          f"packings, got {singles} singles and {len(packings)} packings")
     folder = Path(folder)
-    cell = cell_from_config(config)
+    cell = CellScene.of(settings).cell
     tag = f"f{freq_hz:g}Hz_G{accel_g:g}"
     runs = folder / "runs" / tag
-    block = int(config["fidelity"]["sem_block_cycles"])
+    block = settings.sampling.sem_block_cycles
     (folder / "records").mkdir(parents=True, exist_ok=True)
 
     def kept(name: str, record: dict) -> dict:
@@ -95,10 +96,10 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
     # The coupon's cost estimate first: a failure of the largest run shows before the others.
     centres = coupon_centres(cell, *coupon)
     cells = packings[:len(centres)]
-    estimate = kept("coupon_estimate", run_patch(short_window(config, *ESTIMATE_CYCLES), freq_hz,
+    estimate = kept("coupon_estimate", run_patch(short_window(settings, *ESTIMATE_CYCLES), freq_hz,
                                                  accel_g, cells, centres, runs / "coupon_estimate",
                                                  f"{tag}_coupon_estimate"))
-    alone = [kept(f"single{k}", run_patch(config, freq_hz, accel_g, [packings[k]], np.zeros((1, 2)),
+    alone = [kept(f"single{k}", run_patch(settings, freq_hz, accel_g, [packings[k]], np.zeros((1, 2)),
                                           runs / f"single{k}", f"{tag}_single{k}"))
              for k in range(singles)]
     scenes = {"single": alone[0], "replicates7": separate_runs_scene(alone[:7], block)}
@@ -106,17 +107,17 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
         scenes["replicates19"] = separate_runs_scene(alone[:19], block)
     for name, rings in (("patch7", 1), ("patch19", 2)):
         centres_ring = ring_centres(cell, rings)
-        scenes[name] = kept(name, run_patch(config, freq_hz, accel_g, packings[:len(centres_ring)],
+        scenes[name] = kept(name, run_patch(settings, freq_hz, accel_g, packings[:len(centres_ring)],
                                             centres_ring, runs / name, f"{tag}_{name}"))
     setup_s, per_cycle_s = split_cost(estimate)
     transient = alone[0]["transient_cycles"]
     predicted = setup_s + per_cycle_s * (transient + alone[0]["measured_cycles"])
-    coupon_config, note = config, "full window"
+    coupon_settings, note = settings, "full window"
     if predicted > coupon_cpu_limit_s:
         measured = max(2 * block, int((coupon_cpu_limit_s - setup_s) / per_cycle_s) - transient)
-        coupon_config = short_window(config, transient, measured)
+        coupon_settings = short_window(settings, transient, measured)
         note = f"{measured} measured cycles (the full window was predicted at {predicted:.0f} s CPU)"
-    scenes["coupon"] = run_patch(coupon_config, freq_hz, accel_g, cells, centres, runs / "coupon",
+    scenes["coupon"] = run_patch(coupon_settings, freq_hz, accel_g, cells, centres, runs / "coupon",
                                  f"{tag}_coupon")
     scenes["coupon"].update(window_note=note, estimate={
         "cpu_time_s": estimate["engine"]["cpu_time_s"], "cell_cycles": estimate["cell_cycles"],
@@ -125,8 +126,11 @@ def run_scene_study(config: dict, freq_hz: float, accel_g: float, packings: list
     return {"freq_hz": freq_hz, "accel_g": accel_g, "scenes": scenes, "singles": alone}
 
 
-def load_scene_study(config: dict, freq_hz: float, accel_g: float, folder: str | Path) -> dict:
+def load_scene_study(block_cycles: int, singles: int, freq_hz: float, accel_g: float,
+                     folder: str | Path) -> dict:
     """The result of :func:`run_scene_study` again, from the records it kept (no new runs).
+
+    ``block_cycles`` is ``fidelity.sem_block_cycles``; ``singles`` the replicates shaken alone.
 
     Raises
     ------
@@ -135,13 +139,12 @@ def load_scene_study(config: dict, freq_hz: float, accel_g: float, folder: str |
     """
     records = Path(folder) / "records"
     tag = f"f{freq_hz:g}Hz_G{accel_g:g}"
-    settings = config["scene"]
 
     def read(name: str) -> dict:
         return json.loads((records / f"{tag}_{name}.json").read_text(encoding="utf-8"))
 
-    block = int(config["fidelity"]["sem_block_cycles"])
-    alone = [read(f"single{k}") for k in range(int(settings["singles"]))]
+    block = int(block_cycles)
+    alone = [read(f"single{k}") for k in range(int(singles))]
     scenes = {"single": alone[0], "replicates7": separate_runs_scene(alone[:7], block)}
     if len(alone) >= 19:
         scenes["replicates19"] = separate_runs_scene(alone[:19], block)
@@ -349,26 +352,28 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
     from pidpipe.liggghts.pour import replicate_packings
 
     settings = config["scene"]
+    shaking, pouring = ShakeSettings.from_config(config), PourSettings.from_config(config)
     coupon = (int(settings["coupon_columns"]), int(settings["coupon_rows"]))
     n_packings = max(int(settings["singles"]), coupon[0] * coupon[1])
     packings, refused, pour_cpu = [], [], {}
     while len(packings) < n_packings:
         # A pour the campaign would refuse (not settled, or above the lid) is left out and the
         # next replicate takes its place.
-        poured, pour_cpu = replicate_packings(config, float(settings["fill_pct"]),
+        poured, pour_cpu = replicate_packings(pouring, float(settings["fill_pct"]),
                                               n_packings + len(refused), Path(folder) / "packings",
                                               workers=workers)
         packings, refused = usable_packings(poured)
     rows, compared, scatter = [], [], []
     for case in settings["cases"]:
         if from_records:
-            result = load_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]), folder)
+            result = load_scene_study(shaking.sampling.sem_block_cycles, int(settings["singles"]),
+                                      float(case["freq_hz"]), float(case["accel_g"]), folder)
         else:
-            result = run_scene_study(config, float(case["freq_hz"]), float(case["accel_g"]),
+            result = run_scene_study(shaking, float(case["freq_hz"]), float(case["accel_g"]),
                                      packings, folder, singles=int(settings["singles"]),
                                      coupon=coupon,
                                      coupon_cpu_limit_s=float(settings["coupon_cpu_limit_s"]))
-        rows += scene_rows(result, int(config["geometry"]["coupon_n_cells"]))
+        rows += scene_rows(result, shaking.coupon_n_cells)
         compared += comparison_rows(result)
         scatter.append(scatter_row(result))
     for path, table in ((table_path, rows), (comparisons_path, compared)):

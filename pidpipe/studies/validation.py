@@ -1,6 +1,6 @@
 """Validation of single-cell LIGGGHTS results against the independent in-repo DEM (compiled with Numba).
 
-Both solvers shake the same packing with the same config (materials, pairs, fidelity, cycles);
+Both solvers shake the same packing with the same settings (materials, pairs, fidelity, cycles);
 per case the table gives E_d per cycle and the cell's C_eq from each, with their standard
 errors (block means over the measured cycles), the ratio DEM / LIGGGHTS with its
 uncertainty, and whether the two agree within the combined uncertainty (difference no larger
@@ -20,6 +20,7 @@ import pandas as pd
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import Packing
+from pidpipe.config.settings import ShakeSettings
 
 #: Columns of the comparison table, in order.
 TABLE_COLUMNS: tuple[str, ...] = (
@@ -88,9 +89,9 @@ def transient_cycles(record: dict) -> int:
     return int(record.get("fidelity", {}).get("transient_cycles", -1))
 
 
-def validate_case(config: dict, case: CaseSpec, packing: Packing, workdir: str | Path,
+def validate_case(settings: ShakeSettings, case: CaseSpec, packing: Packing, workdir: str | Path,
                   coverage: float = 2.0) -> tuple[dict, dict, dict]:
-    """Shake one case with both solvers from the same config and packing.
+    """Shake one case with both solvers from the same settings and packing.
 
     Returns
     -------
@@ -98,19 +99,18 @@ def validate_case(config: dict, case: CaseSpec, packing: Packing, workdir: str |
         :func:`compare_records` of the two records.
     liggghts_record, dem_record : dict
     """
+    from pidpipe.cell.scene import CellScene
     from pidpipe.dem import simulate_cell
-    from pidpipe.dem.from_config import scene_from_config
+    from pidpipe.dem.from_scene import dem_scene
     from pidpipe.liggghts.shake import run_case
-    from pidpipe.measurement.timestep import transient_cycles_for
 
-    fidelity = config["fidelity"]
-    liggghts_record = run_case(config, case, packing, Path(workdir) / case.case_id)
+    sampling = settings.sampling
+    liggghts_record = run_case(settings, case, packing, Path(workdir) / case.case_id)
     (dem_record,) = simulate_cell(
-        scene_from_config(config, case.freq_hz, case.accel_g), packing.centres(),
-        transient_cycles=transient_cycles_for(config, case.freq_hz),
-        measured_cycles=int(fidelity["measured_cycles"]),
-        block_cycles=int(fidelity["sem_block_cycles"]),
-        n_cells=int(config["geometry"]["coupon_n_cells"]), seed=packing.seed)
+        dem_scene(CellScene.of(settings), case.freq_hz, case.accel_g), packing.centres(),
+        transient_cycles=sampling.transient_cycles_at(case.freq_hz),
+        measured_cycles=sampling.measured_cycles, block_cycles=sampling.sem_block_cycles,
+        n_cells=settings.coupon_n_cells, seed=packing.seed)
     dem_record["case_id"] = case.case_id
     dem_record["fill_pct"] = case.fill_pct
     return compare_records(liggghts_record, dem_record, coverage), liggghts_record, dem_record
@@ -156,13 +156,13 @@ def plot_comparison(rows: list[dict], path: str | Path) -> Path:
     return path
 
 
-def run_validation(config: dict, cases: list[CaseSpec], packings: dict[str, Packing],
+def run_validation(settings: ShakeSettings, cases: list[CaseSpec], packings: dict[str, Packing],
                    outdir: str | Path, coverage: float = 2.0) -> pd.DataFrame:
     """Validate several cases; writes ``validation.csv`` and ``validation.png`` in ``outdir``.
 
     Parameters
     ----------
-    config : dict
+    settings : ShakeSettings
     cases : list of CaseSpec
     packings : dict
         Packing of each case, keyed by :attr:`CaseSpec.packing_id`.
@@ -172,7 +172,7 @@ def run_validation(config: dict, cases: list[CaseSpec], packings: dict[str, Pack
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    rows = [validate_case(config, case, packings[case.packing_id], outdir / "runs", coverage)[0]
+    rows = [validate_case(settings, case, packings[case.packing_id], outdir / "runs", coverage)[0]
             for case in cases]
     write_table(rows, outdir / "validation.csv")
     plot_comparison(rows, outdir / "validation.png")

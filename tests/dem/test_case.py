@@ -12,6 +12,7 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
@@ -28,15 +29,15 @@ CASE = CaseSpec(1000, 10, 25)
 def packings(tmp_path_factory):
     """Replicates 0 and 1 of the 25 % fill (5 spheres each)."""
     folder = tmp_path_factory.mktemp("pour25")
-    return [pour(short_config(), 25, k, folder / f"rep{k}") for k in range(2)]
+    return [pour(PourSettings.from_config(short_config()), 25, k, folder / f"rep{k}") for k in range(2)]
 
 
 @pytest.fixture(scope="module")
 def both(packings, tmp_path_factory):
     """The same case and packing in LIGGGHTS and in the DEM (short windows)."""
     config = short_config(transient=10, measured=20)
-    liggghts = run_case(config, CASE, packings[0], tmp_path_factory.mktemp("liggghts"))
-    return liggghts, run_dem_case(config, CASE, packings[0])
+    liggghts = run_case(ShakeSettings.from_config(config), CASE, packings[0], tmp_path_factory.mktemp("liggghts"))
+    return liggghts, run_dem_case(ShakeSettings.from_config(config), CASE, packings[0])
 
 
 def _keys(record: dict, prefix: str = "") -> set[str]:
@@ -77,7 +78,7 @@ def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, b
     series is the single-cell run's to rounding, and the case reports the mean cell."""
     _, alone = both
     config = short_config(transient=10, measured=20)
-    together = run_dem_case(config, CASE, packings)
+    together = run_dem_case(ShakeSettings.from_config(config), CASE, packings)
     assert together["fidelity"]["cells_per_run"] == 2 and len(together["cells"]) == 2
     assert together["fidelity"]["seeds"] == [p.seed for p in packings]
     first = np.array(together["cells"][0]["dissipated_j"])
@@ -90,19 +91,23 @@ def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, b
 def test_adaptive_cycles_extend_a_dem_case_until_the_target(packings):
     config = short_config(transient=10, measured=8)
     config["fidelity"].update(target_relative_sem=0.05, max_measured_cycles=200)
-    record = run_to_target(config, CASE, packings[0], "unused", run=run_dem_case)
-    stages = record["target"]["stages"]
-    assert stages[0] == 8 and len(stages) >= 2
-    assert record["fidelity"]["measured_cycles"] == stages[-1]
-    assert record["target"]["reached"] or stages[-1] == 200
-    assert record["target"]["cpu_time_s"] > 0
+    record = run_to_target(ShakeSettings.from_config(config), CASE, packings[0], "unused",
+                           run=run_dem_case)
+    target = record["target"]
+    runs = target["runs"]
+    assert runs[0]["kind"] == "pilot" and runs[0]["measured_cycles"] == 8
+    # one packing and no pool to pour more from: only cycles can be added
+    assert len(runs) >= 2 and all(run["kind"] == "more_cycles" for run in runs[1:])
+    assert record["fidelity"]["measured_cycles"] == target["measured_cycles"] == runs[-1]["measured_cycles"]
+    assert target["reached"] or "target_not_reached" in record["flags"]
+    assert target["cpu_time_s"] > 0
 
 
 def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_case():
     config = short_config()
     dem = copy.deepcopy(config)
     dem["engine"] = "dem"
-    assert case_runner(dem) is run_dem_case
-    assert case_runner(config) is run_case
-    failed = failed_record(dem, CASE, 5, [1], "boom")
+    assert case_runner(ShakeSettings.from_config(dem)) is run_dem_case
+    assert case_runner(ShakeSettings.from_config(config)) is run_case
+    failed = failed_record(ShakeSettings.from_config(dem), CASE, 5, [1], "boom")
     assert failed["solver"] == "numba-dem" and failed["fidelity"]["engine"] == "dem"

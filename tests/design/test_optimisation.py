@@ -12,17 +12,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pidpipe.design.optimisation import (
-    Budget,
-    BudgetError,
-    Environment,
+from pidpipe.design.designs import (
     history_frame,
-    optimise_environment,
-    optimise_environments,
     results_frame,
     write_history_csv,
     write_results_csv,
     write_results_json,
+)
+from pidpipe.design.optimisation import (
+    Budget,
+    BudgetError,
+    Environment,
+    optimise_environment,
+    optimise_environments,
 )
 from pidpipe.design.surrogate import fit_surrogate
 from pidpipe.errors import ConfigError, DomainError

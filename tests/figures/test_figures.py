@@ -8,10 +8,17 @@ import pytest
 from matplotlib.contour import QuadContourSet
 from matplotlib.image import imread
 
-from pidpipe.design.optimisation import Budget, Environment, optimise_environments
+from pidpipe.design.bootstrap import Bootstrap, bootstrap_designs, resampled_surrogates
+from pidpipe.design.designs import Search, optimise_designs
+from pidpipe.design.optimisation import Budget, Environment
 from pidpipe.design.surrogate import fit_surrogate
 from pidpipe.figures.convergence import plot_convergence
-from pidpipe.figures.maps import plot_ceq_freq_accel, plot_ceq_freq_fill
+from pidpipe.figures.maps import (
+    plot_ceq_freq_accel,
+    plot_ceq_freq_fill,
+    relative_spread,
+)
+from pidpipe.figures.spread import plot_optimum_spread
 
 
 def table(f=(50.0, 100.0, 500.0, 750.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 50.0, 75.0, 90.0)):
@@ -26,9 +33,11 @@ def surrogate():
     return fit_surrogate(table())
 
 
-def panels(fig):
-    """The map axes (colour bar excluded)."""
-    return [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+def panels(fig, row=0):
+    """The map axes (row 0) or their uncertainty panels (row 1), colour bars excluded."""
+    axes = [ax for ax in fig.axes if ax.get_label() != "<colorbar>"]
+    half = len(axes) // 2
+    return axes[:half] if row == 0 else axes[half:]
 
 
 def assert_not_blank(png):
@@ -81,14 +90,18 @@ def test_slice_outside_the_domain_is_not_extrapolated(tmp_path):
 def test_convergence_figure_highlights_the_global_optimum(surrogate, tmp_path):
     envs = [Environment("250-300 Hz, 5-6 g", (250.0, 300.0), (5.0, 6.0)),
             Environment("450-500 Hz, 1-2 g", (450.0, 500.0), (1.0, 2.0))]
-    results = optimise_environments(surrogate, envs, Budget(230, 22, 441), starts=5, seed=4)
+    results = optimise_designs(surrogate, envs, Budget(230, 22, 441), Search(starts=5, seed=4))
     fig = plot_convergence(results, stem=tmp_path / "convergence")
     assert_not_blank(tmp_path / "convergence.png")
     assert (tmp_path / "convergence.pdf").exists()
-    assert len(fig.axes) == 2
-    for ax, res in zip(fig.axes, results):
+    assert len(fig.axes) == 6  # rows: designs; columns: environments
+    by_position = {(kind, env.name): ax for ax, (kind, env) in
+                   zip(fig.axes, [(k, e) for k in ("peak", "band_mean", "worst_case") for e in envs])}
+    for res in results:
+        ax = by_position[(res.kind, res.environment.name)]
         assert ax.get_xlabel() == "SLSQP iteration" and "N·s/m" in ax.get_ylabel()
-        assert res.environment.name in ax.get_title()
+        assert res.environment.name in ax.get_title() and res.kind in ax.get_title()
+        assert ("G ≤ 1" in ax.get_title()) == (res.environment.accel_g[0] <= 1.0)
         drawn = [line for line in ax.get_lines() if len(line.get_xdata()) > 0]
         assert len(drawn) == len(res.starts)
         best = max(drawn, key=lambda line: line.get_linewidth())
@@ -107,3 +120,55 @@ def test_uncertain_points_and_the_one_g_line_are_drawn(tmp_path):
     assert len(ringed) == 1
     assert np.allclose(ringed[0].get_offsets()[:, 1], 1.0) and len(ringed[0].get_offsets()) == 20
     assert any(line.get_label().startswith("G = 1") for line in ax.get_lines())
+
+
+@pytest.fixture(scope="module")
+def noisy_surrogate():
+    rows = table()
+    rows["ceq_coupon_sem_ns_m"] = 0.05 * rows["ceq_coupon_ns_m"]
+    return fit_surrogate(rows)
+
+
+def test_maps_carry_an_uncertainty_panel_whose_spread_is_the_sem_at_the_dem_points(noisy_surrogate,
+                                                                                   tmp_path):
+    draws = list(resampled_surrogates(noisy_surrogate, 50, seed=11))
+    fig = plot_ceq_freq_fill(noisy_surrogate, (2.0, 5.0, 8.0), stem=tmp_path / "m", draws=draws)
+    spread_axes = panels(fig, row=1)
+    assert len(spread_axes) == 3
+    assert all(any(isinstance(c, QuadContourSet) for c in ax.get_children()) for ax in spread_axes)
+    assert "spread of 50 bootstrap refits" in spread_axes[1].get_title()
+    bars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(bars) == 2 and "std / value (%)" in bars[1].get_ylabel()
+    # the refits interpolate their redrawn values, so at a DEM point the spread is its 5 % SEM
+    on = noisy_surrogate.training[noisy_surrogate.training["accel_g"] == 5.0]
+    at_points = relative_spread(noisy_surrogate, draws, on["freq_hz"].to_numpy(),
+                                on["accel_g"].to_numpy(), on["fill_pct"].to_numpy())
+    assert np.median(at_points) == pytest.approx(5.0, rel=0.2)
+    assert_not_blank(tmp_path / "m.png")
+    # no draws: the panels say why instead of drawing a spread
+    fig = plot_ceq_freq_accel(noisy_surrogate, (25.0, 50.0, 80.0), draws=None, note="no SEM column")
+    for ax in panels(fig, row=1):
+        assert "uncertainty not drawn" in ax.get_title()
+        assert not any(isinstance(c, QuadContourSet) for c in ax.get_children())
+        assert any(t.get_text() == "no SEM column" for t in ax.texts)
+
+
+def test_spread_figure_shows_every_draw_and_the_intervals(noisy_surrogate, tmp_path):
+    envs = [Environment("250-300 Hz, 5-6 g", (250.0, 300.0), (5.0, 6.0)),
+            Environment("450-500 Hz, 1-2 g", (450.0, 500.0), (1.0, 2.0))]
+    budget, search = Budget(230, 22, 441), Search(starts=4, seed=1)
+    results = optimise_designs(noisy_surrogate, envs, budget, search)
+    draws = bootstrap_designs(noisy_surrogate, results, budget, search, Bootstrap(draws=12, starts=1))
+    fig = plot_optimum_spread(results, draws, stem=tmp_path / "spread")
+    assert_not_blank(tmp_path / "spread.png")
+    assert (tmp_path / "spread.pdf").stat().st_size > 5000
+    assert len(fig.axes) == 2
+    for ax, env in zip(fig.axes, envs):
+        assert env.name in ax.get_title() and "12 bootstrap draws" in ax.get_title()
+        assert ("G ≤ 1" in ax.get_title()) == (env.accel_g[0] <= 1.0)
+        assert "fill fraction r (%)" in ax.get_xlabel() and "N·s/m" in ax.get_ylabel()
+        dots = [c for c in ax.collections if len(c.get_offsets()) == 12]
+        assert len(dots) == 3  # one cloud of 12 draws per design
+        labels = [text.get_text() for text in ax.get_legend().get_texts()]
+        assert [label.split(":")[0] for label in labels] == ["peak", "band_mean", "worst_case"]
+        assert all("n_c = " in label and "wins" in label for label in labels)

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.cell.scene import CellScene
+from pidpipe.dem.from_scene import dem_scene
 from pidpipe.liggghts.contact_energy import (
     contact_elastic_energies,
     contact_elasticities,
@@ -27,7 +28,7 @@ OVERLAPS_M = (1e-10, 3e-8, 1e-6)   # a resting sphere's floor contact to a hard 
 
 @pytest.fixture
 def laws(config):
-    scene = scene_from_config(config, 500.0, 5.0)
+    scene = dem_scene(CellScene.from_config(config), 500.0, 5.0)
     return {"particle_particle": scene.pp, "particle_wall": scene.pw}
 
 
@@ -36,7 +37,7 @@ def laws(config):
 def test_hertz_energy_is_the_work_of_the_hertz_force(config, laws, kind, overlap):
     law = laws[kind]
     work, _ = quad(lambda d: law.a_n * d**1.5, 0.0, overlap, epsabs=0.0, epsrel=1e-12)
-    elasticity = contact_elasticities(config)[kind]
+    elasticity = contact_elasticities(CellScene.from_config(config))[kind]
     energy = hertz_normal_energy(elasticity.youngs_eff_pa, elasticity.radius_eff_m, overlap)
     assert energy == pytest.approx(work, rel=1e-9)
     force = hertz_normal_force(elasticity.youngs_eff_pa, elasticity.radius_eff_m, overlap)
@@ -50,13 +51,13 @@ def test_tangential_energy_is_the_work_of_the_spring_at_the_present_overlap(conf
     stiffness = laws[kind].a_t * np.sqrt(overlap)
     length = float(np.linalg.norm(xi))
     work, _ = quad(lambda s: stiffness * s, 0.0, length, epsabs=0.0, epsrel=1e-12)
-    elasticity = contact_elasticities(config)[kind]
+    elasticity = contact_elasticities(CellScene.from_config(config))[kind]
     energy = tangential_spring_energy(elasticity.shear_eff_pa, elasticity.radius_eff_m, overlap, xi)
     assert energy == pytest.approx(work, rel=1e-9)
 
 
 def test_no_energy_without_overlap(config):
-    elasticity = contact_elasticities(config)["particle_wall"]
+    elasticity = contact_elasticities(CellScene.from_config(config))["particle_wall"]
     assert hertz_normal_energy(elasticity.youngs_eff_pa, elasticity.radius_eff_m, -1e-9) == 0.0
     assert tangential_spring_energy(elasticity.shear_eff_pa, elasticity.radius_eff_m, 0.0,
                                     [1e-9, 0.0, 0.0]) == 0.0
@@ -64,9 +65,9 @@ def test_no_energy_without_overlap(config):
 
 def test_constants_follow_the_deck(config):
     # the Young's modulus scale of the fidelity reaches the deck, so it must reach the energy
-    base = contact_elasticities(config)
+    base = contact_elasticities(CellScene.from_config(config))
     config["fidelity"]["youngs_modulus_scale"] = 0.1
-    soft = contact_elasticities(config)
+    soft = contact_elasticities(CellScene.from_config(config))
     radius = config["materials"][config["particle_material"]]["radius_m"]
     for kind in base:
         assert soft[kind].youngs_eff_pa == pytest.approx(0.1 * base[kind].youngs_eff_pa, rel=1e-12)
@@ -76,7 +77,7 @@ def test_constants_follow_the_deck(config):
 
 
 def test_a_frame_sums_normal_and_tangential_energy_of_every_contact(config):
-    elasticity = contact_elasticities(config)["particle_particle"]
+    elasticity = contact_elasticities(CellScene.from_config(config))["particle_particle"]
     e_star, g_star, r_star = elasticity.youngs_eff_pa, elasticity.shear_eff_pa, elasticity.radius_eff_m
     rows = np.array([[1, 2, 0, 1e-9, 0.0, 0.0, 4e-8],
                      [2, 3, 0, 0.0, 0.0, 0.0, 1e-8],

@@ -20,6 +20,7 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.design.ceq_table import split_usable
 from pidpipe.design.records import records_to_table
 from pidpipe.liggghts.pour import pour
@@ -57,7 +58,7 @@ def shake_corners(tmp_path_factory, run) -> dict:
     base = corner_config(load_config()["fidelity"]["timestep_rayleigh_fraction"])
     halved = copy.deepcopy(base)
     halved["fidelity"]["timestep_rayleigh_fraction"] /= 2.0
-    packings = {fill: pour(base, fill, 0, tmp_path_factory.mktemp(f"pour{fill:g}"))
+    packings = {fill: pour(PourSettings.from_config(base), fill, 0, tmp_path_factory.mktemp(f"pour{fill:g}"))
                 for fill in (25.0, 90.0)}
     jobs = [(corner, config, label) for corner in CORNERS
             for config, label in ((base, "dt"), (halved, "half_dt"))]
@@ -66,7 +67,7 @@ def shake_corners(tmp_path_factory, run) -> dict:
         (freq, accel, fill), config, label = job
         case = CaseSpec(freq, accel, fill)
         workdir = tmp_path_factory.mktemp(f"{case.case_id}_{label}")
-        return run(config, case, packings[fill], workdir)
+        return run(ShakeSettings.from_config(config), case, packings[fill], workdir)
 
     with ThreadPoolExecutor(max_workers=2) as pool:  # LIGGGHTS runs in subprocesses, the
         # compiled DEM releases no GIL: its jobs just run one after the other

@@ -4,6 +4,7 @@ Set PIDPIPE_UPDATE_GOLDEN=1 to rewrite the golden files after an intended templa
 """
 
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -11,10 +12,17 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import Packing
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 from pidpipe.liggghts.decks import common_values, render
 from pidpipe.liggghts.shake import render_shake_deck
+
+
+def _plain(config: dict) -> ShakeSettings:
+    """The shake settings of ``config`` without the motion sampling: the plain deck."""
+    return replace(ShakeSettings.from_config(config), motion=None)
 
 GOLDEN = Path(__file__).parents[1] / "golden"
 POSITIONS = [[0.0004, 0.0003, -0.01125], [-0.0005, 0.0002, -0.0088]]
@@ -33,7 +41,7 @@ def _compare(name, text):
 
 
 def test_shake_deck_golden(tmp_path):
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), _packing(), tmp_path)
+    plan = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path)
     _compare("shake.lmp", plan["deck"].read_text())
 
 
@@ -43,7 +51,7 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
     second = Packing(positions_m=[[0.0001, -0.0002, -0.0112]], radius_m=1.25e-3, n_spheres=1,
                      seed=2, pile_height_m=0.003, lid_height_m=0.0254, max_speed_m_s=0.0,
                      settle_time_s=0.1, fill_pct=10.0)
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
+    plan = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
     text = plan["deck"].read_text()
     assert "group           cell1 id 3:3" in text
     assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power v_power_cell0 v_power_cell1 file" in text
@@ -54,7 +62,7 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
 def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
     cfg = load_config()
     cfg["fidelity"].update(rotation=False, friction=False, youngs_modulus_scale=0.1)
-    plan = render_shake_deck(cfg, CaseSpec(50, 1, 10), _packing(), tmp_path)
+    plan = render_shake_deck(_plain(cfg), CaseSpec(50, 1, 10), _packing(), tmp_path)
     text = plan["deck"].read_text()
     assert "fix             integrate all nve\n" in text
     assert "coefficientFriction peratomtypepair 2 0.0 0.0 0.0 0.0" in text
@@ -62,7 +70,7 @@ def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
 
 
 def _values(**overrides):
-    values = common_values(load_config(), np.array(POSITIONS), 1e-6, "cell.stl", "test", "pack",
+    values = common_values(CellScene.from_config(load_config()), np.array(POSITIONS), 1e-6, "cell.stl", "test", "pack",
                            {"xlo": -1, "xhi": 1, "ylo": -1, "yhi": 1, "zlo": -1, "zhi": 1}, 100)
     values.update(settle_steps=10, output_file="settled.dump", tap_amplitude_m=2.5e-4, tap_period_s=0.01, tap_steps=1000,
                   further_settling=[])
@@ -106,10 +114,33 @@ def test_missing_value_is_an_error():
 
 
 def test_no_deck_holds_a_shell_include_or_string_variable(tmp_path):
-    plan = render_shake_deck(load_config(), CaseSpec(500, 5, 10), _packing(), tmp_path)
+    plan = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path)
     for line in plan["deck"].read_text().splitlines():
         command = line.split("#")[0].split()
         if command:
             assert command[0] not in {"shell", "include", "python", "jump", "label"}
             if command[0] == "variable":
                 assert command[2] == "equal"
+
+
+def test_shake_deck_with_motion_sampling_and_movie_golden(tmp_path):
+    """The motion and movie blocks (off in every other golden deck): the walls store their
+    force, each cell gets its floor, lid, centre and energy columns, the movie reads its steps."""
+    from pidpipe.config.inspection import MotionSampling, MovieSettings
+
+    second = Packing(positions_m=[[0.0001, -0.0002, -0.0112]], radius_m=1.25e-3, n_spheres=1,
+                     seed=2, pile_height_m=0.003, lid_height_m=0.0254, max_speed_m_s=0.0,
+                     settle_time_s=0.1, fill_pct=10.0)
+    settings = replace(_plain(load_config()), motion=MotionSampling(20))
+    plan = render_shake_deck(settings, CaseSpec(500, 5, 10), [_packing(), second], tmp_path,
+                             movie=MovieSettings(5, 2))
+    text = plan["deck"].read_text()
+    assert "meshes cell store_force yes\n" in text
+    assert " v_power_cell1 v_floor_force_cell1 v_lid_force_cell1 file motion_windows.txt" in text
+    assert " v_energy_cell1 v_centre_cell1 v_bottom_cell1 v_top_cell1 file motion_energy.txt" in text
+    # 2223 steps a cycle, 20 windows: 111 steps, rounded down to samples every 10 steps
+    assert plan["motion"]["window_steps"] == 110 and "ave/time 10 11 110" in text
+    steps = [int(s) for s in (tmp_path / "movie_steps.txt").read_text().split()]
+    cycles = plan["cycles"]
+    assert len(steps) == 10 + 1 and steps[0] == (cycles - 2) * 2223 and steps[-1] == cycles * 2223 + 1
+    _compare("shake_inspection.lmp", text)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from pidpipe.cases import CaseSpec
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.liggghts.shake import run_case
 from tests.conftest import short_config
 
@@ -21,7 +22,7 @@ def test_no_dissipation_where_none_is_modelled(tmp_path, half_fill_packing):
     for pair in cfg["pairs"]:
         pair["restitution"] = 1.0
     cfg["fidelity"]["friction"] = False
-    record = run_case(cfg, CaseSpec(500, 5, 50), half_fill_packing, tmp_path)
+    record = run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 50), half_fill_packing, tmp_path)
     cycles = record["cycles"]
     dissipated = np.array(cycles["dissipated_j"][2:])
     exchanged = np.array(cycles["gross_work_j"][2:])
@@ -35,7 +36,7 @@ def test_no_dissipation_where_none_is_modelled(tmp_path, half_fill_packing):
 
 def test_balance_closes_and_is_reported_cycle_by_cycle(tmp_path, half_fill_packing):
     cfg = short_config(transient=3, measured=12)
-    record = run_case(cfg, CaseSpec(1000, 10, 50), half_fill_packing, tmp_path)
+    record = run_case(ShakeSettings.from_config(cfg), CaseSpec(1000, 10, 50), half_fill_packing, tmp_path)
     cycles = record["cycles"]
     assert len(cycles["dissipated_j"]) == 15 and len(cycles["energy_j"]) == 16
     measured = np.array(cycles["dissipated_j"][3:])

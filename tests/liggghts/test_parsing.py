@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
 from pidpipe.errors import ParseError
 from pidpipe.liggghts.contact_energy import boundary_elastic_energy
@@ -109,7 +110,7 @@ def test_real_contact_dumps():
 
 def _contact_balance(folder=CONTACTS):
     elastic = boundary_elastic_energy(folder / "pair_contacts.dump", folder / "wall_contacts.dump",
-                                      load_config(), BOUNDARIES, np.zeros(CONTACT_SPHERES, dtype=int))[:, 0]
+                                      CellScene.from_config(load_config()), BOUNDARIES, np.zeros(CONTACT_SPHERES, dtype=int))[:, 0]
     return read_cycles(folder / "power.txt", folder / "energy.txt", 1.0 / 500.0, CONTACT_CYCLES,
                        elastic_j=elastic)
 

@@ -9,9 +9,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pidpipe.cell.packing import Packing, cell_from_config
+from pidpipe.cell.packing import Packing
 from pidpipe.cell.patch import ring_centres
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 from pidpipe.liggghts.patch_run import render_patch_deck
 
@@ -26,8 +28,8 @@ def _packing(dx):
 
 def _render(tmp_path, label="patch_test"):
     config = load_config()
-    centres = ring_centres(cell_from_config(config), 1)[:2]
-    return render_patch_deck(config, 500, 5, [_packing(0.0), _packing(1e-4)], centres, tmp_path, label)
+    centres = ring_centres(CellScene.from_config(config).cell, 1)[:2]
+    return render_patch_deck(ShakeSettings.from_config(config), 500, 5, [_packing(0.0), _packing(1e-4)], centres, tmp_path, label)
 
 
 def test_patch_deck_golden(tmp_path):
@@ -44,7 +46,7 @@ def test_spheres_are_created_in_their_cells(tmp_path):
     text = _render(tmp_path)["deck"].read_text()
     created = np.array([[float(v) for v in line.split()[3:6]] for line in text.splitlines()
                         if line.startswith("create_atoms")])
-    centre_1 = ring_centres(cell_from_config(load_config()), 1)[1]
+    centre_1 = ring_centres(CellScene.from_config(load_config()).cell, 1)[1]
     assert np.allclose(created[2], [0.0005 + centre_1[0], 0.0003 + centre_1[1], -0.01125])
 
 

@@ -14,8 +14,9 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.cell.packing import cell_from_config
 from pidpipe.cell.patch import place_in_cells, ring_centres, spheres_in_own_cells
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.patch_run import CONTAINMENT_TOL_RADII, run_patch
 from pidpipe.liggghts.pour import pour
 from tests.conftest import short_config
@@ -31,10 +32,10 @@ LEDGER_TOL = 0.01                 # of the mean E_d (mean) and of the gross work
 def runs(tmp_path_factory, half_fill_packing):
     cfg = short_config(transient=3, measured=12)
     folder = tmp_path_factory.mktemp("scene")
-    packings = [half_fill_packing] + [pour(cfg, 50, k, folder / f"pour{k}") for k in (1, 2)]
-    centres = ring_centres(cell_from_config(cfg), 1)[:3]    # the centre cell and two neighbours
-    patch = run_patch(cfg, FREQ_HZ, ACCEL_G, packings, centres, folder / "patch", "patch3")
-    singles = [run_patch(cfg, FREQ_HZ, ACCEL_G, [p], np.zeros((1, 2)), folder / f"single{k}",
+    packings = [half_fill_packing] + [pour(PourSettings.from_config(cfg), 50, k, folder / f"pour{k}") for k in (1, 2)]
+    centres = ring_centres(CellScene.from_config(cfg).cell, 1)[:3]    # the centre cell and two neighbours
+    patch = run_patch(ShakeSettings.from_config(cfg), FREQ_HZ, ACCEL_G, packings, centres, folder / "patch", "patch3")
+    singles = [run_patch(ShakeSettings.from_config(cfg), FREQ_HZ, ACCEL_G, [p], np.zeros((1, 2)), folder / f"single{k}",
                          f"single{k}") for k, p in enumerate(packings)]
     return {"config": cfg, "packings": packings, "centres": centres, "patch": patch,
             "singles": singles}
@@ -45,7 +46,7 @@ def test_spheres_start_and_stay_in_their_own_cells(runs):
     positions, owner = place_in_cells([p.centres() for p in runs["packings"]], runs["centres"])
     radius = runs["packings"][0].radius_m
     # settled spheres press on the walls by a few 0.01 um: the run's tolerance (0.02 radii)
-    assert spheres_in_own_cells(cell_from_config(cfg), runs["centres"], positions, owner, radius,
+    assert spheres_in_own_cells(CellScene.from_config(cfg).cell, runs["centres"], positions, owner, radius,
                                 CONTAINMENT_TOL_RADII * radius).all()
     assert runs["patch"]["contained"]
     assert all(single["contained"] for single in runs["singles"])

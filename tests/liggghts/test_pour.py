@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from pidpipe.cell.packing import SETTLED_SPEED_M_S, check_packing
+from pidpipe.config.settings import PourSettings
 from pidpipe.errors import PackingError
 from pidpipe.liggghts.pour import MAX_FURTHER_SETTLING, pour
 from tests.conftest import short_config
@@ -23,7 +24,7 @@ UNSETTLED_REPLICATE = 97
 
 
 def test_pour_not_settled_in_time_goes_on_settling_and_passes(tmp_path):
-    packing = pour(short_config(), 50, UNSETTLED_REPLICATE, tmp_path)
+    packing = pour(PourSettings.from_config(short_config()), 50, UNSETTLED_REPLICATE, tmp_path)
     configured = json.loads((GOLDEN / "pack_r50pct_rep0.json").read_text())["settle_time_s"]
     # settled after one further chunk: twice the configured settle time (same timestep, steps)
     assert packing.settle_time_s == pytest.approx(2 * configured, rel=1e-12)
@@ -49,7 +50,7 @@ def test_pour_settled_in_time_is_unchanged(half_fill_packing):
 def test_pour_still_moving_after_the_cap_is_refused(tmp_path):
     cfg = short_config()
     cfg["fidelity"]["settle_time_s"] = 1e-4
-    packing = pour(cfg, 50, 0, tmp_path)
+    packing = pour(PourSettings.from_config(cfg), 50, 0, tmp_path)
     assert packing.max_speed_m_s > SETTLED_SPEED_M_S
     assert packing.settle_time_s == pytest.approx((1 + MAX_FURTHER_SETTLING) * 1e-4, rel=0.02)
     with pytest.raises(PackingError) as info:

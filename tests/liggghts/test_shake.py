@@ -7,6 +7,7 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import check_packing
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, PackingError
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.process import run_deck
@@ -19,8 +20,8 @@ pytestmark = pytest.mark.engine
 def test_ceq_is_finite_positive_and_reproducible(tmp_path, half_fill_packing):
     cfg = short_config(transient=3, measured=12)
     case = CaseSpec(500, 5, 50)
-    first = run_case(cfg, case, half_fill_packing, tmp_path / "a")
-    second = run_case(cfg, case, half_fill_packing, tmp_path / "b")
+    first = run_case(ShakeSettings.from_config(cfg), case, half_fill_packing, tmp_path / "a")
+    second = run_case(ShakeSettings.from_config(cfg), case, half_fill_packing, tmp_path / "b")
     assert math.isfinite(first["ceq_cell_ns_m"]) and first["ceq_cell_ns_m"] > 0
     assert first["ceq_cell_sem_ns_m"] > 0
     assert first["ceq_coupon_ns_m"] == pytest.approx(441 * first["ceq_cell_ns_m"])
@@ -34,23 +35,23 @@ def test_ceq_is_finite_positive_and_reproducible(tmp_path, half_fill_packing):
 
 
 def test_same_seed_same_packing(tmp_path, half_fill_packing):
-    again = pour(short_config(), 50, 0, tmp_path)
+    again = pour(PourSettings.from_config(short_config()), 50, 0, tmp_path)
     assert again.positions_m == half_fill_packing.positions_m
-    other = pour(short_config(), 50, 1, tmp_path)
+    other = pour(PourSettings.from_config(short_config()), 50, 1, tmp_path)
     assert other.positions_m != half_fill_packing.positions_m
 
 
 def test_overfull_cell_is_refused_before_shaking(tmp_path):
     cfg = short_config()
     cfg["fill"]["definition"] = "source_36"
-    packing = pour(cfg, 90, 0, tmp_path)
+    packing = pour(PourSettings.from_config(cfg), 90, 0, tmp_path)
     assert packing.n_spheres == 32 and not packing.fits
     with pytest.raises(PackingError) as info:
         check_packing(packing, "f500Hz_G5_r90pct_rep0")
     message = str(info.value)
     assert "f500Hz_G5_r90pct_rep0" in message and "32 spheres" in message and "25.4 mm" in message
     with pytest.raises(PackingError):
-        run_case(cfg, CaseSpec(500, 5, 90), packing, tmp_path / "shake")
+        run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 90), packing, tmp_path / "shake")
     assert not (tmp_path / "shake" / "shake.lmp").exists()
 
 
@@ -76,8 +77,8 @@ def test_a_longer_window_repeats_the_shorter_one_cycle_for_cycle(tmp_path, half_
     # pidpipe.measurement.adaptive extends a case by running it again with more cycles: that only adds
     # cycles if the same seed and packing replay the same trajectory.
     case = CaseSpec(1000.0, 10.0, 50.0)
-    short = run_case(short_config(transient=3, measured=4), case, half_fill_packing, tmp_path / "short")
-    long = run_case(short_config(transient=3, measured=8), case, half_fill_packing, tmp_path / "long")
+    short = run_case(ShakeSettings.from_config(short_config(transient=3, measured=4)), case, half_fill_packing, tmp_path / "short")
+    long = run_case(ShakeSettings.from_config(short_config(transient=3, measured=8)), case, half_fill_packing, tmp_path / "long")
     n = len(short["cycles"]["dissipated_j"])
     assert long["cycles"]["dissipated_j"][:n] == short["cycles"]["dissipated_j"]
     assert len(long["cycles"]["dissipated_j"]) == n + 4

@@ -8,6 +8,7 @@ import pytest
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import LEDGER_TOLERANCE, run_case
 from tests.conftest import short_config
@@ -21,15 +22,15 @@ CASE = CaseSpec(1000, 10, 25)
 def quarter_fill_packings(tmp_path_factory):
     """Replicates 0, 1, 2 of the 25 % fill (5 spheres each)."""
     folder = tmp_path_factory.mktemp("pour25")
-    return [pour(short_config(), 25, k, folder / f"rep{k}") for k in range(3)]
+    return [pour(PourSettings.from_config(short_config()), 25, k, folder / f"rep{k}") for k in range(3)]
 
 
 @pytest.fixture(scope="module")
 def runs(quarter_fill_packings, tmp_path_factory):
     config = short_config(transient=3, measured=12)
     folder = tmp_path_factory.mktemp("cells")
-    together = run_case(config, CASE, quarter_fill_packings, folder / "together")
-    alone = [run_case(config, CASE, packing, folder / f"alone{k}")
+    together = run_case(ShakeSettings.from_config(config), CASE, quarter_fill_packings, folder / "together")
+    alone = [run_case(ShakeSettings.from_config(config), CASE, packing, folder / f"alone{k}")
              for k, packing in enumerate(quarter_fill_packings)]
     return together, alone
 

@@ -1,93 +1,151 @@
-"""Measuring to a target standard error (pidpipe.measurement.adaptive), with a stand-in for LIGGGHTS whose
-standard error falls as 1/sqrt(n) exactly."""
+"""Measuring a case to a target SEM (pidpipe.measurement.adaptive), with a synthetic engine: each
+packing has its own level (the spread between packings), each run its own cycle noise, and the
+same packings in the same run replay their cycles when run longer, as LIGGGHTS does."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from pathlib import Path
 
+import numpy as np
 import pytest
-import yaml
 
-from pidpipe.cases import CaseSpec
-from pidpipe.config import load_config, validate_config
-from pidpipe.errors import ConfigError
 from pidpipe.measurement.adaptive import (
-    MAX_STAGES,
-    SAFETY,
-    cycles_for_target,
-    run_to_target,
+    MAX_STEPS,
+    TARGET_NOT_REACHED,
+    combine_runs,
+    measure_to_target,
 )
+from pidpipe.measurement.allocation import Limits
+from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.cost_model import CostModel
 
-CASE = CaseSpec(500.0, 5.0, 50.0)
-
-
-def fake_run(ceq: float, scatter: float):
-    """A run() whose C_eq is ``ceq`` and whose SEM is scatter / sqrt(measured cycles); it logs
-    the measured cycles of every call."""
-    calls = []
-
-    def run(config, case, packing, workdir):
-        n = config["fidelity"]["measured_cycles"]
-        calls.append(n)
-        return {"ceq_cell_ns_m": ceq, "ceq_cell_sem_ns_m": scatter / math.sqrt(n),
-                "ceq_cell_cycle_sem_ns_m": scatter / math.sqrt(n),
-                "engine": {"cpu_time_s": 0.1 * n}, "fidelity": {"measured_cycles": n}}
-
-    return run, calls
+F_HZ, G = 500.0, 5.0
+TRANSIENT = 10
+MODEL = CostModel("synthetic", 1.0, 10e-6, 6e-6, 0.0, 5.0, 0.0)
 
 
-def config_with(target, measured=40, cap=400):
-    config = load_config()
-    config["fidelity"].update(target_relative_sem=target, measured_cycles=measured,
-                              max_measured_cycles=cap)
-    return config
+@dataclasses.dataclass(frozen=True)
+class FakePacking:
+    seed: int
+    n_spheres: int = 11
+    pile_height_m: float = 0.01
 
 
-def test_without_a_target_the_case_runs_once_as_configured(tmp_path):
-    run, calls = fake_run(1.0, 1.0)
-    record = run_to_target(config_with(None), CASE, None, tmp_path, run)
-    assert calls == [40] and "target" not in record
+class SyntheticEngine:
+    """Cells of E_d ~ level(seed) * (1 + noise * N(0, 1)) per cycle; logs every run it makes."""
+
+    def __init__(self, packing_std: float, cycle_noise: float, level: float = 1e-8):
+        self.packing_std, self.cycle_noise, self.level = packing_std, cycle_noise, level
+        self.calls = []
+
+    def shake(self, packings, cycles, index):
+        self.calls.append((index, [p.seed for p in packings], cycles))
+        total = TRANSIENT + cycles
+        series = []
+        for position, packing in enumerate(packings):
+            offset = np.random.default_rng(packing.seed).standard_normal()
+            noise = np.random.default_rng([packing.seed, index, position]).standard_normal(total)
+            series.append(self.level * (1 + self.packing_std * offset) * (1 + self.cycle_noise * noise))
+        summary = summarise_cells([s[TRANSIENT:] for s in series], F_HZ, G, 441, 2)
+        for cell, s, packing in zip(summary["cells"], series, packings):
+            cell.update(seed=packing.seed, n_spheres=11, pile_height_m=0.01, dissipated_j=s.tolist())
+        return {**summary, "status": "ok", "flags": [], "n_spheres": 11,
+                "cycles": {"dissipated_j": np.sum(series, axis=0).tolist()},
+                "fidelity": {"transient_cycles": TRANSIENT, "measured_cycles": cycles,
+                             "sem_block_cycles": 2, "seed": packings[0].seed},
+                "engine": {"cpu_time_s": MODEL.run_cpu_s(len(packings), 11, 1000 * total)},
+                "wall_time_s": 0.0}
 
 
-def test_the_window_grows_until_the_target_is_met(tmp_path):
-    # pilot: 40 cycles, SEM 1/sqrt(40) = 15.8 %; a 5 % target needs 400 cycles, 480 with the margin
-    run, calls = fake_run(1.0, 1.0)
-    record = run_to_target(config_with(0.05, cap=1000), CASE, None, tmp_path, run)
-    assert calls == [40, math.ceil(40 * (1 / math.sqrt(40) / 0.05) ** 2 * SAFETY)]
-    assert record["target"]["reached"] and record["target"]["stages"] == calls
-    assert record["target"]["cpu_time_s"] == pytest.approx(0.1 * sum(calls))
-    assert record["fidelity"]["measured_cycles"] == calls[-1]
+def packings_from(first_seed):
+    return lambda first, count: [FakePacking(first_seed + first + j) for j in range(count)]
 
 
-def test_the_cap_stops_the_growth_and_says_the_target_was_missed(tmp_path):
-    run, calls = fake_run(1.0, 1.0)
-    record = run_to_target(config_with(0.01, cap=300), CASE, None, tmp_path, run)
-    assert calls == [40, 300]
-    assert not record["target"]["reached"]
+def costs(pour_s):
+    return lambda pilot: ((lambda k, n: MODEL.run_cpu_s(k, 11, 1000 * (TRANSIENT + n))), pour_s)
 
 
-def test_a_met_target_costs_no_second_run(tmp_path):
-    run, calls = fake_run(1.0, 0.1)
-    assert run_to_target(config_with(0.05), CASE, None, tmp_path, run)["target"]["reached"]
-    assert calls == [40]
+def measure(engine, target, limits, pilot_cells=7, pilot_cycles=40, pour_s=5.0):
+    pilot = [FakePacking(100 + j) for j in range(pilot_cells)]
+    return measure_to_target(pilot, pilot_cycles, target, limits, engine.shake, packings_from(100),
+                             costs(pour_s), lambda records: combine_runs(records, F_HZ, G, 441))
 
 
-def test_a_ceq_not_above_zero_is_not_extended(tmp_path):
-    run, calls = fake_run(-1e-9, 1.0)
-    record = run_to_target(config_with(0.05), CASE, None, tmp_path, run)
-    assert calls == [40] and not record["target"]["reached"]
+LIMITS = Limits(max_cells=96, max_cycles=2000, max_cpu_s=1e4, cells_per_run=24)
 
 
-def test_stages_are_bounded():
-    assert cycles_for_target(40, 0.5, 0.05, 100000) == math.ceil(40 * 100 * SAFETY)
-    assert cycles_for_target(40, 0.0501, 0.05, 100000) > 40  # always adds cycles
-    assert cycles_for_target(400, 0.5, 0.05, 400) == 400
-    assert MAX_STAGES >= 2
+def test_packing_spread_is_met_with_more_cells():
+    engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
+    record = measure(engine, 0.05, LIMITS)
+    target = record["target"]
+    assert target["reached"] and record["ceq_cell_sem_ns_m"] <= 0.05 * record["ceq_cell_ns_m"]
+    assert {step["kind"] for step in target["steps"]} == {"more_cells"}
+    assert all(cycles == 40 for _, _, cycles in engine.calls)
+    # every run is listed, all used, and together they hold every cell of the estimate
+    assert [entry["run"] for entry in target["runs"]] == [call[0] for call in engine.calls]
+    assert all(entry["used"] for entry in target["runs"])
+    seeds = [seed for entry in target["runs"] for seed in entry["seeds"]]
+    assert seeds == record["fidelity"]["seeds"] and len(set(seeds)) == target["cells"] > 7
+    assert target["cpu_time_s"] == pytest.approx(sum(e["cpu_time_s"] for e in target["runs"]))
+    assert TARGET_NOT_REACHED not in record["flags"] and record["status"] == "ok"
 
 
-def test_a_cap_below_the_pilot_is_a_config_error():
-    raw = yaml.safe_load((Path(__file__).resolve().parents[2] / "config.yaml").read_text())
-    raw["fidelity"]["max_measured_cycles"] = 10
-    with pytest.raises(ConfigError, match="fidelity.max_measured_cycles = 10"):
-        validate_config(raw)
+def test_cycle_noise_is_met_with_more_cycles_on_the_same_cells():
+    engine = SyntheticEngine(packing_std=0.0, cycle_noise=1.5)
+    record = measure(engine, 0.05, LIMITS, pour_s=50.0)     # new packings dear: rerun longer
+    target = record["target"]
+    assert target["reached"] and target["cells"] == 7 and target["measured_cycles"] > 40
+    assert target["steps"][0]["kind"] == "more_cycles"
+    # the longer run replaces the pilot (same run index, same seeds): only the last is used
+    assert [entry["used"] for entry in target["runs"]] == [False] * (len(target["runs"]) - 1) + [True]
+    assert len({tuple(entry["seeds"]) for entry in target["runs"]}) == 1
+    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record["cells"])
+
+
+def test_the_caps_stop_it_and_it_keeps_the_sem_it_got():
+    engine = SyntheticEngine(packing_std=0.6, cycle_noise=0.05)
+    record = measure(engine, 0.02, Limits(max_cells=14, max_cycles=400, max_cpu_s=1e4, cells_per_run=24))
+    target = record["target"]
+    assert not target["reached"] and TARGET_NOT_REACHED in record["flags"]
+    assert target["cells"] == 14
+    assert record["ceq_cell_sem_ns_m"] > 0.02 * record["ceq_cell_ns_m"]
+    # a CPU cap: the planned CPU of the runs stays within it
+    engine = SyntheticEngine(packing_std=0.6, cycle_noise=0.05)
+    record = measure(engine, 0.02, Limits(max_cells=96, max_cycles=400, max_cpu_s=20.0, cells_per_run=24))
+    assert record["target"]["planned_cpu_s"] <= 20.0 and TARGET_NOT_REACHED in record["flags"]
+    assert len(record["target"]["steps"]) <= MAX_STEPS
+
+
+def test_a_ceq_not_resolved_from_zero_is_not_chased():
+    engine = SyntheticEngine(packing_std=0.0, cycle_noise=0.0, level=0.0)
+    engine.cycle_noise = 1.0
+    engine.level = 1e-8
+    rng_free = SyntheticEngine(packing_std=0.0, cycle_noise=0.0)
+
+    def zero_mean(packings, cycles, index):          # mean zero, noise 1e-8 J per cycle
+        record = rng_free.shake(packings, cycles, index)
+        for cell in record["cells"]:
+            noise = np.random.default_rng(cell["seed"]).standard_normal(len(cell["dissipated_j"]))
+            cell["dissipated_j"] = (1e-8 * noise).tolist()
+        return record
+
+    pilot = [FakePacking(j) for j in range(7)]
+    record = measure_to_target(pilot, 40, 0.05, LIMITS, zero_mean, packings_from(0), costs(5.0),
+                               lambda records: combine_runs(records, F_HZ, G, 441))
+    assert len(record["target"]["runs"]) == 1 and record["target"]["steps"] == []
+    assert "not_resolved" in record["flags"] or "negative_dissipation" in record["flags"]
+
+
+def test_without_a_target_the_pilot_is_the_case():
+    engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
+    record = measure(engine, None, LIMITS)
+    assert len(engine.calls) == 1 and "target" not in record
+
+
+def test_more_cells_than_a_run_holds_go_in_several_runs():
+    engine = SyntheticEngine(packing_std=0.4, cycle_noise=0.05)
+    record = measure(engine, 0.04, Limits(max_cells=96, max_cycles=400, max_cpu_s=1e4, cells_per_run=10))
+    assert all(len(seeds) <= 10 for _, seeds, _ in engine.calls)
+    assert record["target"]["cells"] == len(record["cells"]) > 10
+    assert math.isfinite(record["ceq_cell_sem_ns_m"])

@@ -20,8 +20,10 @@ import pandas as pd
 import pytest
 
 from pidpipe.cases import CaseSpec
-from pidpipe.cell.packing import Packing, cell_from_config, random_start, save_packing
+from pidpipe.cell.packing import Packing, random_start, save_packing
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
 from pidpipe.design.ceq_table import (
     OPTIONAL_COLUMNS,
@@ -130,7 +132,7 @@ def test_replicates_are_averaged_into_one_row():
 
 def test_failed_case_is_a_failed_row_without_values_and_is_not_fitted(config):
     case = CaseSpec(1000.0, 10.0, 50.0)
-    failed = failed_record(config, case, n_spheres=11, seeds=[20261123],
+    failed = failed_record(ShakeSettings.from_config(config), case, n_spheres=11, seeds=[20261123],
                                     message="case f1000Hz_G10_r50pct_rep0 failed: boom")
     records = [record(1000.0, 10.0, 25.0), failed]
     table = records_to_table(records)
@@ -201,7 +203,7 @@ def test_collect_table_refuses_a_corrupt_record(tmp_path):
 
 
 def _packing(config: dict, n_spheres: int, pile_m: float | None = None) -> Packing:
-    cell = cell_from_config(config)
+    cell = CellScene.from_config(config).cell
     radius = config["materials"]["acrylic"]["radius_m"]
     centres = random_start(cell, n_spheres, radius, seed=1)
     pile = pile_m if pile_m is not None else float(centres[:, 2].max() + radius - cell.floor_z_m)
@@ -247,7 +249,7 @@ def test_failure_of_the_first_run_is_retried(config, tmp_path, monkeypatch):
     script.chmod(0o755)
     monkeypatch.setenv("PIDPIPE_LIGGGHTS", str(script))
     case_config = stage_config(config, "case")
-    case_config["fidelity"].update(transient_cycles=1, measured_cycles=2)
+    case_config["fidelity"].update(transient_cycles=1, measured_cycles=2, target_relative_sem=None)
     packing_path = save_packing(_packing(config, 5), tmp_path / "r25pct_rep0.json")
     log = tmp_path / "case.log"
     run_step(simulate_case, str(log), config=case_config,
@@ -350,7 +352,7 @@ def test_stage_config_follows_what_the_stage_uses(config, stage, path, value):
 def test_stage_config_is_enough_to_render_a_case(config, tmp_path):
     from pidpipe.liggghts.shake import render_shake_deck
 
-    plan = render_shake_deck(stage_config(config, "case"), CaseSpec(500.0, 5.0, 50.0),
+    plan = render_shake_deck(ShakeSettings.from_config(stage_config(config, "case")), CaseSpec(500.0, 5.0, 50.0),
                              _packing(config, 11), tmp_path)
     assert plan["deck"].is_file()
 
@@ -409,22 +411,20 @@ class _Plane:
 
 
 def test_results_json_reads_back_and_plots(tmp_path):
-    from pidpipe.design.optimisation import (
-        Budget,
-        Environment,
-        optimise_environments,
-        write_results_json,
-    )
+    from pidpipe.design.designs import Search, optimise_designs, write_results_json
+    from pidpipe.design.optimisation import Budget, Environment
 
-    results = optimise_environments(_Plane(), [Environment("e", (200.0, 300.0), (2.0, 3.0))],
-                                    Budget(n_spheres=1000, full_cell_spheres=21, n_cells_coupon=441),
-                                    starts=3, seed=1)
+    results = optimise_designs(_Plane(), [Environment("e", (200.0, 300.0), (2.0, 3.0))],
+                               Budget(n_spheres=1000, full_cell_spheres=21, n_cells_coupon=441),
+                               Search(starts=3, seed=1))
     path = tmp_path / "optimum.json"
     write_results_json(results, path)
     back = read_results_json(path)
-    assert back[0].design == results[0].design
-    assert back[0].optimum == results[0].optimum
-    assert [s.history_ns_m for s in back[0].starts] == [s.history_ns_m for s in results[0].starts]
+    assert [r.kind for r in back] == ["peak", "band_mean", "worst_case"]
+    for again, result in zip(back, results):
+        assert again.design == result.design and again.band == result.band
+        assert again.optimum == result.optimum
+        assert [s.history_ns_m for s in again.starts] == [s.history_ns_m for s in result.starts]
     plot_optimisation_convergence(str(path), str(tmp_path / "convergence.png"))
     assert (tmp_path / "convergence.png").stat().st_size > 1000
     assert (tmp_path / "convergence.pdf").stat().st_size > 1000

@@ -18,6 +18,7 @@ import pytest
 import yaml
 
 from pidpipe.config import DEFAULT_CONFIG_PATH, load_config, validate_config
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
 from pidpipe.studies.fidelity import (
     REFERENCE,
@@ -113,11 +114,11 @@ def test_planned_steps_follow_cycles_over_frequency_and_timestep():
     from pidpipe.cases import CaseSpec
 
     case = CaseSpec(50.0, 10.0, 25.0)
-    default = planned_steps(plan.case_configs["default"], case)
+    default = planned_steps(ShakeSettings.from_config(plan.case_configs["default"]), case)
     # 0.2 -> 0.1 Rayleigh times doubles the steps (to the whole-steps-per-cycle rounding)
-    assert planned_steps(plan.case_configs["dt_0p1"], case) / default == pytest.approx(2.0, rel=1e-3)
+    assert planned_steps(ShakeSettings.from_config(plan.case_configs["dt_0p1"]), case) / default == pytest.approx(2.0, rel=1e-3)
     # softening by 100 lengthens the Rayleigh time, and dt, tenfold
-    assert planned_steps(plan.case_configs["E_scale_0p01"], case) / default == pytest.approx(0.1, rel=1e-3)
+    assert planned_steps(ShakeSettings.from_config(plan.case_configs["E_scale_0p01"]), case) / default == pytest.approx(0.1, rel=1e-3)
 
 
 # --------------------------------------------------------------------------------------------

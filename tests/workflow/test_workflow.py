@@ -106,29 +106,44 @@ def test_surrogate_and_its_cross_validation(campaign_dir):
 
 def test_optimum_lies_in_the_environment_and_spends_the_budget(campaign_dir, config):
     optimum = pd.read_csv(campaign_dir / "results" / "optimum.csv")
-    assert len(optimum) == len(config["environments"]) == 1
-    row, env = optimum.iloc[0], config["environments"][0]
-    assert row["environment"] == env["name"]
-    assert env["freq_hz"][0] - 1e-9 <= row["freq_hz"] <= env["freq_hz"][1] + 1e-9
-    assert env["accel_g"][0] - 1e-9 <= row["accel_g"] <= env["accel_g"][1] + 1e-9
-    assert 25.0 - 1e-6 <= row["fill_pct"] <= 50.0 + 1e-6
+    assert len(config["environments"]) == 1
+    assert list(optimum["design"]) == ["peak", "band_mean", "worst_case"]
+    env = config["environments"][0]
+    peak = optimum.iloc[0]
+    assert env["freq_hz"][0] - 1e-9 <= peak["freq_hz"] <= env["freq_hz"][1] + 1e-9
+    assert env["accel_g"][0] - 1e-9 <= peak["accel_g"] <= env["accel_g"][1] + 1e-9
     n_b, full = budget_spheres(config), full_cell_spheres(config)
-    assert row["n_budget_spheres"] == n_b and row["full_cell_spheres"] == full
-    n_cells = int(row["n_cells"])
-    assert n_cells == row["n_cells"] and 1 <= n_cells <= config["geometry"]["coupon_n_cells"]
-    # (9/25-style) budget: spheres per cell x filled cells = n_b, to rounding
-    assert row["spheres_per_cell"] * n_cells == pytest.approx(n_b, rel=1e-9)
-    assert row["whole_spheres_per_cell"] * n_cells + row["spheres_left_over"] == n_b
-    assert row["fill_pct"] == pytest.approx(100.0 * row["spheres_per_cell"] / full, rel=1e-9)
-    assert row["total_ceq_ns_m"] == pytest.approx(row["ceq_per_cell_ns_m"] * n_cells, rel=1e-9)
-    assert row["total_ceq_ns_m"] > 0 and row["n_converged"] >= 1
+    draws = config["optimisation"]["bootstrap"]["draws"]
+    for _, row in optimum.iterrows():
+        assert row["environment"] == env["name"]
+        assert 25.0 - 1e-6 <= row["fill_pct"] <= 50.0 + 1e-6
+        assert row["n_budget_spheres"] == n_b and row["full_cell_spheres"] == full
+        n_cells = int(row["n_cells"])
+        assert n_cells == row["n_cells"] and 1 <= n_cells <= config["geometry"]["coupon_n_cells"]
+        # (9/25-style) budget: spheres per cell x filled cells = n_b, to rounding
+        assert row["spheres_per_cell"] * n_cells == pytest.approx(n_b, rel=1e-9)
+        assert row["whole_spheres_per_cell"] * n_cells + row["spheres_left_over"] == n_b
+        assert row["fill_pct"] == pytest.approx(100.0 * row["spheres_per_cell"] / full, rel=1e-9)
+        assert row["total_ceq_ns_m"] == pytest.approx(row["ceq_per_cell_ns_m"] * n_cells, rel=1e-9)
+        assert row["total_ceq_ns_m"] > 0 and row["n_converged"] >= 1
+        assert (row["band_worst_total_ceq_ns_m"] <= row["band_mean_total_ceq_ns_m"]
+                <= row["band_best_total_ceq_ns_m"])
+        # the bootstrap: every case's SEM redrawn, draws re-optimised, intervals around the design
+        assert row["bootstrap_draws"] == draws and row["bootstrap_used"] >= 0.9 * draws
+        for name in ("fill_pct", "n_cells", "total_ceq_ns_m"):
+            assert row[f"{name}_lo"] <= row[f"{name}_hi"]
+        assert row["total_ceq_ns_m_lo"] < row["total_ceq_ns_m_hi"]
     history = pd.read_csv(campaign_dir / "results" / "optimum_history.csv")
-    assert set(history["start"]) == set(range(config["optimisation"]["starts"]))
+    assert set(history["design"]) == {"peak", "band_mean", "worst_case"}
+    for _, starts in history.groupby("design"):
+        assert set(starts["start"]) >= set(range(config["optimisation"]["starts"]))
     assert (campaign_dir / "results" / "optimum.json").stat().st_size > 0
+    boot = pd.read_csv(campaign_dir / "results" / "optimum_bootstrap.csv")
+    assert len(boot) == 3 * draws
 
 
 def test_figures_are_written_as_png_and_pdf(campaign_dir):
-    for stem in ("ceq_freq_fill", "ceq_freq_accel", "convergence"):
+    for stem in ("ceq_freq_fill", "ceq_freq_accel", "convergence", "optimum_spread"):
         png = campaign_dir / "results" / "figures" / f"{stem}.png"
         pdf = campaign_dir / "results" / "figures" / f"{stem}.pdf"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
@@ -166,6 +181,27 @@ def test_report_collects_figures_and_tables(campaign_dir):
     html = (campaign_dir / "report.html").read_text(errors="replace")
     for name in ("ceq_freq_fill.png", "convergence.png", "ceq_table.csv", "optimum.csv"):
         assert name in html
+
+
+def test_regimes_gallery_and_movie_of_the_chosen_cases(campaign_dir, config):
+    """Every row's regime comes from its cells' motion; the chosen cases have their phase
+    figure (in the report) and their movie."""
+    from pidpipe.cell.vtk_series import read_pvd
+    from pidpipe.measurement.regime import REGIMES
+
+    table = pd.read_csv(campaign_dir / "results" / "ceq_table.csv")
+    done = table[table["status"].isin(["ok", "flagged"])]
+    assert done["regime"].isin(REGIMES).all(), done[["case_id", "regime"]]
+    assert done["regime_cells"].str.contains(":").all()
+    html = (campaign_dir / "report.html").read_text(errors="replace")
+    for case_id in config["inspection"]["phase_figure_cases"]:
+        png = campaign_dir / "results" / "figures" / "phase" / f"{case_id}.png"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+        assert f"{case_id}.png" in html
+    for case_id in config["inspection"]["movie_cases"]:
+        entries = read_pvd(campaign_dir / "results" / "movies" / case_id / "movie.pvd")
+        frames = config["inspection"]["movie_frames_per_cycle"] * config["inspection"]["movie_cycles"]
+        assert len(entries) == 2 * frames and all(path.is_file() for _, _, path in entries)
 
 
 def test_second_run_has_nothing_to_do(campaign_dir):

@@ -5,14 +5,23 @@ import sys
 from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
-                                  environment_params)
+                                  environment_params, inspected_cases, map_uncertainty_params,
+                                  optimisation_params)
+from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
+from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
 
 
 CASES = campaign_cases(config)
 PACKING_IDS = campaign_packing_ids(config)
+PHASE_FIGURE_CASES, _ignored_figures = inspected_cases(config, "phase_figure_cases")
+MOVIE_CASES, _ignored_movies = inspected_cases(config, "movie_cases")
+for _key, _ignored in (("phase_figure_cases", _ignored_figures), ("movie_cases", _ignored_movies)):
+    if _ignored:
+        print(f"pidpipe: inspection.{_key}: not cases of this campaign, ignored: "
+              + ", ".join(_ignored), file=sys.stderr)
 
 # Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
 CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
@@ -57,6 +66,13 @@ def get_case_id(wildcards):
     return CASE_PATTERN.format(**wildcards)
 
 
+def get_case_runtime_min(wildcards, attempt):
+    """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.steps.resources)."""
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    return cluster_resources.case_runtime_min(settings, case, attempt)
+
+
 def get_packing_config():
     """The config values a packing depends on."""
     return stage_config(config, "packing")
@@ -88,8 +104,14 @@ def get_budget():
     return budget_params(config)
 
 
-def get_optimisation_option(key):
-    return config["optimisation"][key]
+def get_optimisation_params():
+    """What the designs depend on: config optimisation without the table's path (an input)."""
+    return optimisation_params(config)
+
+
+def get_map_uncertainty_params():
+    """The bootstrap draws and seed of the maps' uncertainty panels."""
+    return map_uncertainty_params(config)
 
 
 def get_final_targets():
@@ -103,15 +125,33 @@ def get_final_targets():
         "results/figures/ceq_freq_fill.png",
         "results/figures/ceq_freq_accel.png",
         "results/figures/convergence.png",
+        "results/figures/optimum_spread.png",
     ]
     if config["optimisation"]["external_ceq_table"] is None:
-        targets = get_case_records() + ["results/ceq_table.csv"] + targets
+        targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets
 
 
 def get_dem_check_records():
     """The compiled DEM's record of every case of the campaign (`snakemake validate`)."""
     return [f"results/validation/dem/{case_id}.json" for case_id in get_case_ids()]
+
+
+def get_phase_figures():
+    """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
+    if config["inspection"]["phase_windows_per_cycle"] == 0:
+        return []
+    return [f"results/figures/phase/{case_id}.png" for case_id in PHASE_FIGURE_CASES]
+
+
+def get_case_movie(wildcards):
+    """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
+    case_id = get_case_id(wildcards)
+    if case_id not in MOVIE_CASES:
+        return {}
+    return {"frames_per_cycle": config["inspection"]["movie_frames_per_cycle"],
+            "cycles": config["inspection"]["movie_cycles"],
+            "directory": f"results/movies/{case_id}"}
 
 
 def get_validation_cases():
@@ -153,7 +193,8 @@ def get_fidelity_case_config(wildcards):
 def get_fidelity_priority(wildcards):
     """Planned time steps of a run, in millions: the costliest runs start first."""
     case = CaseSpec.from_id(get_case_id(wildcards))
-    return fidelity_study.planned_steps(FIDELITY_STUDY.case_configs[wildcards.variant], case) / 1e6
+    settings = ShakeSettings.from_config(FIDELITY_STUDY.case_configs[wildcards.variant])
+    return fidelity_study.planned_steps(settings, case) / 1e6
 
 
 def get_fidelity_variants():

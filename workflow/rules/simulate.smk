@@ -12,11 +12,15 @@ rule simulate_case:
         config=get_case_config(),
         case_id=get_case_id,
         workdir="results/work/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}",
+        packing_pool="results/packings/pool",
+        movie=get_case_movie,
     log:
         "logs/simulate_case/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
     benchmark:
         "results/benchmarks/simulate_case/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.tsv"
     threads: 1
+    resources:
+        runtime=get_case_runtime_min,
     script:
         "../scripts/simulate_case.py"
 

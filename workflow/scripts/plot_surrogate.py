@@ -9,4 +9,6 @@ run_step(
     surrogate_path=snakemake.input.surrogate,
     freq_fill_png=snakemake.output.freq_fill,
     freq_accel_png=snakemake.output.freq_accel,
+    draws=snakemake.params.uncertainty["draws"],
+    seed=snakemake.params.uncertainty["seed"],
 )

@@ -12,4 +12,6 @@ run_step(
     record_path=snakemake.output.record,
     workdir=snakemake.params.workdir,
     log_path=snakemake.log[0],
+    packing_pool=snakemake.params.packing_pool,
+    movie=snakemake.params.movie,
 )

@@ -1,4 +1,4 @@
-"""The fidelity settings of a run: timestep, stiffness softening, cycles.
+"""The timestep of a run: a fraction of the particles' Rayleigh time, a whole number of steps a cycle.
 
 The timestep is the configured fraction of the particles' Rayleigh time, shortened so that a
 cycle of the base motion is a whole number of steps (cycle boundaries then fall on steps).
@@ -9,9 +9,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-
-from pidpipe.config import particle_properties
-from pidpipe.physics.contact import rayleigh_time
 
 HERTZ_FRACTION_LIMIT = 0.1
 """Largest dt / Hertz contact time at the fastest impact (LIGGGHTS' conservative estimate in
@@ -45,27 +42,20 @@ class TimestepPlan:
         return asdict(self)
 
 
-def particle_rayleigh_time(config: dict) -> float:
-    """Rayleigh time of the configured particles with the configured softening, s."""
-    particle = particle_properties(config)
-    scale = config["fidelity"]["youngs_modulus_scale"]
-    return rayleigh_time(particle["radius_m"], particle["density_kg_m3"],
-                         particle["youngs_modulus_pa"] * scale, particle["poisson_ratio"])
+def plan_timestep(rayleigh_time_s: float, rayleigh_fraction: float, freq_hz: float) -> TimestepPlan:
+    """Timestep for excitation at ``freq_hz``: at most ``rayleigh_fraction`` Rayleigh times.
 
-
-def transient_cycles_for(config: dict, freq_hz: float) -> int:
-    """Cycles discarded before measuring at ``freq_hz``: the configured count, or more to last
-    at least ``fidelity.transient_min_time_s``."""
-    fidelity = config["fidelity"]
-    by_time = math.ceil(fidelity["transient_min_time_s"] * freq_hz - 1e-9)
-    return max(int(fidelity["transient_cycles"]), by_time)
-
-
-def plan_timestep(config: dict, freq_hz: float) -> TimestepPlan:
-    """Timestep for excitation at ``freq_hz`` (Hz) under the config's fidelity settings."""
-    t_rayleigh = particle_rayleigh_time(config)
-    target = config["fidelity"]["timestep_rayleigh_fraction"] * t_rayleigh
+    Parameters
+    ----------
+    rayleigh_time_s : float
+        Rayleigh time of the (softened) particles, s.
+    rayleigh_fraction : float
+        Largest dt / Rayleigh time.
+    freq_hz : float
+        Excitation frequency, Hz; a cycle is a whole number of steps.
+    """
+    target = rayleigh_fraction * rayleigh_time_s
     period = 1.0 / freq_hz
     steps = max(1, math.ceil(period / target - 1e-9))
     dt = period / steps
-    return TimestepPlan(dt, steps, t_rayleigh, dt / t_rayleigh)
+    return TimestepPlan(dt, steps, rayleigh_time_s, dt / rayleigh_time_s)

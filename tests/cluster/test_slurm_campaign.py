@@ -1,0 +1,237 @@
+"""The .test campaign through profiles/slurm on a real single-node SLURM, against a local run.
+
+One module fixture runs two campaigns of .test/config.yaml from nothing to the C_eq table
+(targets ``cases table``; the surrogate, optimum and figures would add a SLURM job of about a
+minute here and test nothing more about the cluster), at the same time: a local one
+(``--cores 2``, profiles/default) and one with ``--workflow-profile profiles/slurm`` on the
+local SLURM (tests/cluster/local_slurm.py). While the SLURM campaign runs:
+
+1. the SLURM job of the first case whose LIGGGHTS runs is cancelled with ``scancel``; the
+   profile's ``retries: 1`` must resubmit it (attempt 2) and the campaign must go on;
+2. once Snakemake has finished a case job and another case's LIGGGHTS runs under SLURM,
+   Snakemake is interrupted (SIGINT, as Ctrl-C on the login node): it must cancel its SLURM
+   jobs, and the same command run again must redo exactly the cases it had not finished.
+
+Two settings differ from the profile, for a short test: faster status checks (2 s instead of 40 s
+at first) and 2 cases per job instead of 4 (so that a job finishes while others still run).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+from pidpipe.config import load_config
+from pidpipe.design.records import read_record
+from pidpipe.steps.params import campaign_cases
+from tests._snakemake import (
+    SNAKEFILE,
+    SNAKEMAKE,
+    TEST_CONFIG,
+    WORKFLOW_MARKS,
+    snakemake_command,
+)
+from tests.workflow.test_interruption import (
+    _case_jobs,
+    _finished_cases,
+    _running_liggghts,
+    _table_values,
+    _tail,
+)
+
+PROFILE = Path(__file__).resolve().parents[2] / "profiles" / "slurm"
+#: Faster status polling than the profile's, for the test only (s).
+FAST_POLLING = ("--slurm-init-seconds-before-status-checks", "2",
+                "--seconds-between-status-checks", "2")
+CASES_PER_JOB = 2
+TARGETS = ("cases", "table")
+TIMEOUT_S = 900
+
+pytestmark = [*WORKFLOW_MARKS, pytest.mark.slurm]
+
+
+def slurm_command(workdir: Path, *args: str) -> list[str]:
+    """The command line of a campaign in ``workdir`` through profiles/slurm (``args``: targets)."""
+    return [str(SNAKEMAKE), *args, "--snakefile", str(SNAKEFILE), "--directory", str(workdir),
+            "--workflow-profile", str(PROFILE), *FAST_POLLING,
+            "--group-components", f"cases={CASES_PER_JOB}"]
+
+
+def _start(command: list[str], workdir: Path, output: Path) -> subprocess.Popen:
+    with open(output, "w") as handle:
+        return subprocess.Popen(command, cwd=workdir, stdout=handle, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+
+
+def _slurm_job_of(process: psutil.Process) -> str | None:
+    """The SLURM job id in a process's environment (None once it has ended)."""
+    try:
+        return process.environ().get("SLURM_JOB_ID")
+    except psutil.Error:
+        return None
+
+
+def _wait(process: subprocess.Popen, output: Path) -> None:
+    try:
+        process.wait(timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(process.pid, 9)
+        process.wait()
+        pytest.fail(f"campaign did not end within {TIMEOUT_S} s:\n{_tail(output)}")
+
+
+def submitted_jobs(output: str) -> list[tuple[str, str, Path]]:
+    """(Snakemake job or group id, SLURM job id, SLURM log) of every submission, in order."""
+    return [(job, slurm_id, Path(log)) for job, slurm_id, log in re.findall(
+        r"Job (\S+) has been submitted with SLURM jobid (\d+) \(log: (\S+)\)\.", output)]
+
+
+def cases_in_slurm_log(log: Path) -> set[str]:
+    """The case records that the jobs of one SLURM job's log were to write."""
+    return set(re.findall(r"output: results/cases/(\S+)\.json", log.read_text(errors="replace")))
+
+
+def _slurm_liggghts(workdir: Path) -> dict[str, str]:
+    """Case id -> SLURM job id of every case whose LIGGGHTS runs in a SLURM job in ``workdir``."""
+    jobs = {case_id: _slurm_job_of(process) for case_id, process in _running_liggghts(workdir).items()}
+    return {case_id: job for case_id, job in jobs.items() if job is not None}
+
+
+def _poll(condition, what: str, process: subprocess.Popen, output: Path, cluster):
+    """``condition()`` once it is true; fails if ``process`` ends first or after TIMEOUT_S."""
+    deadline = time.monotonic() + TIMEOUT_S
+    while not (value := condition()):
+        if process.poll() is not None:
+            pytest.fail(f"the SLURM campaign ended before {what}:\n{_tail(output)}")
+        if time.monotonic() > deadline:
+            pytest.fail(f"no {what} within {TIMEOUT_S} s:\n{_tail(output)}\n{cluster.logs()}")
+        time.sleep(0.2)
+    return value
+
+
+@pytest.fixture(scope="module")
+def campaigns(slurm_cluster, tmp_path_factory) -> dict:
+    local = tmp_path_factory.mktemp("local")
+    cluster = tmp_path_factory.mktemp("on_slurm")
+    for workdir in (local, cluster):
+        shutil.copy(TEST_CONFIG, workdir / "config.yaml")
+    local_out, cluster_out = local / "snakemake.out", cluster / "interrupted.out"
+    resumed_out = cluster / "resumed.out"
+    started = time.monotonic()
+    local_run = _start(snakemake_command(local, *TARGETS), local, local_out)
+    cluster_run = _start(slurm_command(cluster, *TARGETS), cluster, cluster_out)
+    try:
+        running = _poll(lambda: _slurm_liggghts(cluster), "case's LIGGGHTS under SLURM",
+                        cluster_run, cluster_out, slurm_cluster)
+        cancelled_case, cancelled_job = sorted(running.items())[0]
+        scancel = slurm_cluster.command("scancel", cancelled_job)
+        assert scancel.returncode == 0, scancel.stdout
+
+        def mid_campaign():
+            finished = _finished_cases(cluster_out.read_text())
+            running = set(_slurm_liggghts(cluster)) - finished
+            return (finished, running) if finished and running else None
+
+        finished_then, running_then = _poll(mid_campaign, "finished case job while another runs",
+                                            cluster_run, cluster_out, slurm_cluster)
+        cluster_run.send_signal(signal.SIGINT)
+        _wait(cluster_run, cluster_out)
+        interrupted = cluster_out.read_text()
+        left = slurm_cluster.command("squeue", "--noheader", "--format=%i|%T")
+        deadline = time.monotonic() + 60
+        while left.stdout.strip() and time.monotonic() < deadline:
+            time.sleep(1)
+            left = slurm_cluster.command("squeue", "--noheader", "--format=%i|%T")
+        resumed_run = _start(slurm_command(cluster, *TARGETS), cluster, resumed_out)
+        _wait(resumed_run, resumed_out)
+        _wait(local_run, local_out)
+    finally:
+        for run in (local_run, cluster_run):
+            if run.poll() is None:
+                os.killpg(run.pid, 9)
+                run.wait()
+    print(f"\nlocal and SLURM campaigns side by side, SLURM interrupted and resumed: "
+          f"{time.monotonic() - started:.0f} s")
+    assert local_run.returncode == 0, f"{local_out}:\n{_tail(local_out)}"
+    assert resumed_run.returncode == 0, f"{resumed_out}:\n{_tail(resumed_out)}\n{slurm_cluster.logs()}"
+    return {"local": local, "cluster": cluster, "interrupted": interrupted,
+            "resumed": resumed_out.read_text(), "cancelled_job": cancelled_job,
+            "cancelled_case": cancelled_case, "finished_then": finished_then,
+            "running_then": running_then, "left_in_queue": left.stdout.strip(),
+            "interrupted_status": cluster_run.returncode}
+
+
+def _job_states(cluster) -> dict[str, str]:
+    """SLURM job id -> state of every job the local SLURM still knows (MinJobAge keeps them)."""
+    run = cluster.command("squeue", "--states=all", "--noheader", "--format=%i|%T")
+    assert run.returncode == 0, run.stdout
+    return dict(line.split("|") for line in run.stdout.split())
+
+
+def test_every_case_ran_as_a_slurm_job(campaigns, slurm_cluster):
+    """Each case is in the log of exactly one SLURM job that Snakemake submitted and SLURM
+    completed, and the jobs hold several cases each (grouping)."""
+    states = _job_states(slurm_cluster)
+    ran = {}
+    for run in ("interrupted", "resumed"):
+        for _, slurm_id, log in submitted_jobs(campaigns[run]):
+            assert log.is_relative_to(campaigns["cluster"] / ".snakemake" / "slurm_logs")
+            if states.get(slurm_id) == "COMPLETED":  # (a job cancelled while pending has no log)
+                assert log.is_file(), f"no SLURM log {log}"
+                for case_id in cases_in_slurm_log(log):
+                    ran.setdefault(case_id, []).append(slurm_id)
+    expected = {case.case_id for case in campaign_cases(load_config(TEST_CONFIG))}
+    assert set(ran) == expected
+    assert all(len(jobs) == 1 for jobs in ran.values()), ran
+    per_job = {}
+    for case_id, (job,) in ran.items():
+        per_job.setdefault(job, set()).add(case_id)
+    assert max(len(cases) for cases in per_job.values()) == CASES_PER_JOB, per_job
+    for case_id in expected:
+        assert (campaigns["cluster"] / "logs" / "simulate_case" / f"{case_id}.log").is_file()
+
+
+def test_table_equals_the_local_run_bit_for_bit_apart_from_timings(campaigns):
+    local = _table_values(campaigns["local"] / "results" / "ceq_table.csv")
+    cluster = _table_values(campaigns["cluster"] / "results" / "ceq_table.csv")
+    assert cluster == local
+
+
+def test_a_cancelled_case_job_is_resubmitted_once_and_the_campaign_goes_on(campaigns,
+                                                                          slurm_cluster):
+    states = _job_states(slurm_cluster)
+    submissions = submitted_jobs(campaigns["interrupted"])
+    cancelled = campaigns["cancelled_job"]
+    assert states[cancelled] == "CANCELLED"
+    assert "Error in group cases" in campaigns["interrupted"]
+    group = next(job for job, slurm_id, _ in submissions if slurm_id == cancelled)
+    resubmitted = [slurm_id for job, slurm_id, _ in submissions if job == group]
+    assert resubmitted[0] == cancelled and len(resubmitted) == 2, submissions
+    retried = next(log for _, slurm_id, log in submissions if slurm_id == resubmitted[1])
+    assert campaigns["cancelled_case"] in cases_in_slurm_log(retried)
+    assert "--attempt 2" in retried.read_text(errors="replace")
+    # the other jobs went on: case jobs finished after the cancellation, in the same run
+    assert campaigns["finished_then"]
+    record = read_record(campaigns["cluster"] / "results" / "cases"
+                         / f"{campaigns['cancelled_case']}.json")
+    assert record["status"] in ("ok", "flagged"), record["status"]
+
+
+def test_an_interrupted_campaign_cancels_its_jobs_and_resumes_with_only_the_missing_cases(
+        campaigns):
+    assert campaigns["interrupted_status"] != 0
+    assert campaigns["left_in_queue"] == "", "SLURM jobs left after Snakemake was interrupted"
+    finished = _finished_cases(campaigns["interrupted"])
+    assert campaigns["finished_then"] <= finished
+    expected = {case.case_id for case in campaign_cases(load_config(TEST_CONFIG))}
+    redone = set(_case_jobs(campaigns["resumed"]).values())
+    assert redone == expected - finished, (sorted(redone), sorted(finished))
+    assert campaigns["running_then"] <= redone
