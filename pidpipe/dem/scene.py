@@ -1,4 +1,4 @@
-"""The one-cell scene of the NumPy DEM: materials, contact laws, base motion and timestep.
+"""The one-cell scene of the DEM (kernel and NumPy reference): materials, contact laws, base motion and timestep.
 
 Everything here is immutable and computed once, before the time loop. The contact laws are
 LIGGGHTS 3.8's ``model hertz tangential history`` (see :mod:`pidpipe.physics.contact`), written as

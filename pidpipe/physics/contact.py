@@ -1,4 +1,4 @@
-"""Contact-model constants shared by the LIGGGHTS path and the NumPy DEM.
+"""Contact-model constants shared by the LIGGGHTS path and the in-repo DEM.
 
 The normal contact is Hertz with the restitution-based (Tsuji-type) damping that LIGGGHTS'
 ``model hertz`` uses; the tangential contact is a Mindlin-type history spring capped by

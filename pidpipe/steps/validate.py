@@ -18,7 +18,7 @@ logger = logging.getLogger("pidpipe.campaign")
 
 def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[str],
                          table_path: str, plot_path: str, workdir: str) -> None:
-    """Run chosen cases in LIGGGHTS and in the NumPy DEM; write the comparison table and plot.
+    """Run chosen cases in LIGGGHTS and in the in-repo DEM; write the comparison table and plot.
 
     Parameters
     ----------

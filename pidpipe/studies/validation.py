@@ -1,8 +1,8 @@
-"""Validation of single-cell LIGGGHTS results against the independent NumPy DEM.
+"""Validation of single-cell LIGGGHTS results against the independent in-repo DEM (compiled with Numba).
 
 Both solvers shake the same packing with the same settings (materials, pairs, fidelity, cycles);
 per case the table gives E_d per cycle and the cell's C_eq from each, with their standard
-errors (block means over the measured cycles), the ratio NumPy DEM / LIGGGHTS with its
+errors (block means over the measured cycles), the ratio DEM / LIGGGHTS with its
 uncertainty, and whether the two agree within the combined uncertainty (difference no larger
 than ``coverage`` times the root-sum-square of the two standard errors; 2 by default). Each
 solver discards its own run's transient by the same rule (the configured count, or more if MSER
@@ -143,11 +143,11 @@ def plot_comparison(rows: list[dict], path: str | Path) -> Path:
     ax.errorbar(x - 0.1, table["ceq_cell_liggghts_ns_m"], yerr=2 * table["ceq_cell_liggghts_sem_ns_m"],
                 fmt="o", capsize=3, label="LIGGGHTS 3.8")
     ax.errorbar(x + 0.1, table["ceq_cell_dem_ns_m"], yerr=2 * table["ceq_cell_dem_sem_ns_m"],
-                fmt="s", capsize=3, label="NumPy DEM")
+                fmt="s", capsize=3, label="in-repo DEM (Numba)")
     ax.set_xticks(x, table["case_id"], rotation=30, ha="right")
     ax.set_ylabel("C_eq per cell (N s/m), ±2 SEM")
     ax.set_yscale("log")
-    ax.set_title("Single cell: LIGGGHTS vs NumPy DEM", fontsize="medium")
+    ax.set_title("Single cell: LIGGGHTS vs the in-repo DEM", fontsize="medium")
     ax.legend()
     fig.tight_layout()
     path = Path(path)

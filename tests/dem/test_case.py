@@ -52,8 +52,11 @@ def _keys(record: dict, prefix: str = "") -> set[str]:
 
 def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
     liggghts, dem = both
+    # not compared: LIGGGHTS' own loop/CPU figures, and the bed's motion within the cycle
+    # (``motion``, issue 17), which only the LIGGGHTS deck samples so far: the table then takes
+    # a DEM case's regime from its acceleration (pidpipe.design.records)
     missing = {key for key in _keys(liggghts) - _keys(dem)
-               if not key.startswith("engine.liggghts_")}  # LIGGGHTS' own loop/CPU figures
+               if not key.startswith(("engine.liggghts_", "motion"))}
     assert not missing
     assert liggghts["solver"] == "liggghts" and dem["solver"] == "numba-dem"
     assert dem["engine"]["name"] == dem["fidelity"]["engine"] == "dem"

@@ -1,4 +1,4 @@
-"""Rule validate: LIGGGHTS against the NumPy DEM (pidpipe.steps.validate.validate_against_dem)."""
+"""Rule validate_chosen: LIGGGHTS against the in-repo DEM (pidpipe.steps.validate.validate_against_dem)."""
 
 from pidpipe.steps.run import run_step
 from pidpipe.steps.validate import validate_against_dem
