@@ -42,6 +42,12 @@ CONF_HEADER = "# Written by tests/cluster/local_slurm.py: one node (this machine
 MIN_JOB_AGE_S = 600
 #: Seconds between SIGTERM and SIGKILL when a job is cancelled or hits its time limit.
 KILL_WAIT_S = 5
+#: How slurmd finds a job's processes to signal them. proctrack/linuxproc follows parent links:
+#: the Snakemake that runs a group job ignores SIGTERM (it waits for its jobs), outlives the
+#: batch script, is re-parented to init and was never killed (found running 27 min after its
+#: job was cancelled). proctrack/pgid signals the job's process group, which it stays in.
+#: Sites use proctrack/cgroup, which needs cgroup set-up that a CI machine may not allow.
+PROCTRACK = "proctrack/pgid"
 
 
 class SlurmStartError(RuntimeError):
@@ -116,7 +122,7 @@ SlurmdUser=root
 AuthType=auth/munge
 CredType=cred/munge
 MpiDefault=none
-ProctrackType=proctrack/linuxproc
+ProctrackType={PROCTRACK}
 TaskPlugin=task/none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core_Memory
