@@ -5,12 +5,13 @@
 #   snakemake --cores 2 --configfile .test/config.yaml   # the reduced CI campaign
 #   snakemake table | surrogate | optimum | figures      # stop after a stage
 #   snakemake --report report.html                       # figures and tables with captions
-#   snakemake --cores 2 validate                         # LIGGGHTS against the NumPy DEM (validation.cases)
+#   snakemake --cores 2 validate                         # every case checked by the compiled DEM (grid.csv)
+#   snakemake --cores 2 validate_chosen                  # validation.cases afresh in LIGGGHTS and the DEM
 #
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in
 # workflow/rules/<stage>.smk, their scripts in workflow/scripts/ (each calls one function of
-# pidpipe.campaign), the grid and the get_* helpers in workflow/rules/common.smk.
+# pidpipe.steps), the grid and the get_* helpers in workflow/rules/common.smk.
 #
 # Failure policy
 # - A case whose LIGGGHTS run fails (EngineError/ParseError) is run once more (a rare MPI_ABORT
@@ -30,11 +31,11 @@
 # interrupted run (Ctrl-C, kill) resumes where it stopped with a plain `snakemake --cores 2`:
 # profiles/default sets rerun-incomplete, so the jobs that were running are redone. After
 # kill -9 (or a power loss) run `snakemake --unlock` once first: Snakemake's lock is left behind
-# and cannot be told from a live run's (tests/test_interruption.py).
+# and cannot be told from a live run's (tests/workflow/test_interruption.py).
 
 import sys
 
-from pidpipe.campaign import workflow_config
+from pidpipe.steps.params import workflow_config
 from pidpipe.errors import ConfigError
 
 

@@ -2,7 +2,7 @@
 
 For a 500 Hz and a 50 Hz case (5 g, 50 % fill, the default fidelity) it reports the wall time,
 the steps per second, and the ratio of the pipeline's wall time (rendering, running, parsing,
-summarising: ``pidpipe.case.run_case``) to the wall time of the LIGGGHTS process and to
+summarising: ``pidpipe.liggghts.shake.run_case``) to the wall time of the LIGGGHTS process and to
 LIGGGHTS' own loop time. Target: pipeline overhead under 5 % of the LIGGGHTS process.
 
 Run: .venv/bin/python benchmarks/bench_case.py
@@ -16,10 +16,11 @@ from pathlib import Path
 
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
-from pidpipe.packing import pour
+from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
 
 
 def main() -> None:
@@ -27,11 +28,11 @@ def main() -> None:
     lines = ["| case | steps | pipeline wall s | LIGGGHTS process s | LIGGGHTS loop s | steps/s (loop) | pipeline / process | pipeline / loop |",
              "|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
-        packing = pour(config, 50, 0, Path(scratch) / "pour")
+        packing = pour(PourSettings.from_config(config), 50, 0, Path(scratch) / "pour")
         for freq in (500.0, 50.0):
             case = CaseSpec(freq, 5.0, 50.0)
             start = time.perf_counter()
-            record = run_case(config, case, packing, Path(scratch) / case.case_id)
+            record = run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / case.case_id)
             pipeline = time.perf_counter() - start
             engine = record["engine"]
             lines.append(

@@ -22,10 +22,11 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
-from pidpipe.scene import replicate_packings
+from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.liggghts.shake import run_case
 
 ACCEL_G, FILL_PCT = 5.0, 50.0
 
@@ -39,11 +40,11 @@ def main() -> None:
              "moved cells vs alone: max abs z |",
              "|---|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
-        packings, _ = replicate_packings(config, FILL_PCT, cells, Path(scratch) / "packings")
+        packings, _ = replicate_packings(PourSettings.from_config(config), FILL_PCT, cells, Path(scratch) / "packings")
         for freq in freqs:
             case = CaseSpec(freq, ACCEL_G, FILL_PCT)
-            together = run_case(config, case, packings, Path(scratch) / f"together_{freq:g}")
-            alone = [run_case(config, case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
+            together = run_case(ShakeSettings.from_config(config), case, packings, Path(scratch) / f"together_{freq:g}")
+            alone = [run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
                      for k, packing in enumerate(packings)]
             cpu_alone = sum(r["engine"]["liggghts_cpu_time_s"] for r in alone)
             cpu_together = together["engine"]["liggghts_cpu_time_s"]

@@ -1,18 +1,27 @@
-"""Speed of the NumPy DEM (issue 4): particle-steps per second on one cell and on batches.
+"""Speed of the compiled DEM against LIGGGHTS (issue 12), both measured in one run.
 
-The case: 11 acrylic spheres (the settled packing of tests/dem/data), 500 Hz, 5 g, the
-default fidelity (dt = 0.2 t_R, rotation and friction on). It times whole cycles after one
-warm-up cycle, for a batch of k = 1, 4 and 8 identical cells integrated together, and reports
-particle-steps per second (spheres x cells x steps / wall time). With ``--liggghts`` it also
-shakes the same packing in LIGGGHTS (pidpipe.case.run_case) and reports the ratio.
+Scenes: 1, 7 and 28 cells of 11 and of 19 acrylic spheres (50 % and 90 % fill; one packing of
+each size poured by LIGGGHTS, repeated in every cell), 500 Hz, 5 g, the default fidelity
+(dt = 0.2 t_R, rotation and friction on), ledgers on in both (the compiled DEM's per-cycle
+ledgers; LIGGGHTS' deck with its energy bookkeeping, as a case runs it). Each engine shakes
+the scene for 1 + ``--cycles`` cycles. Reported: particle-steps per second (spheres x cells
+x steps / time) of each, from the compiled DEM's wall time of the timed cycles (after one
+warm-up cycle) and LIGGGHTS' own loop time, and their ratio; the compile time of the kernel
+on the first call in a fresh process with an empty Numba cache and with the cache filled.
 
-Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 2] [--liggghts]
+The machine is shared: the load average is printed with the figures, and CPU time is given
+next to wall time for the compiled DEM.
+
+Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--no-liggghts]
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -20,74 +29,150 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.dem import run_cycles, start
-from pidpipe.dem.from_config import scene_from_config
+from pidpipe.dem.from_scene import dem_scene
 
-PACKING = Path(__file__).resolve().parent.parent / "tests" / "dem" / "data" / "settled_11.csv"
 FREQ_HZ, ACCEL_G = 500.0, 5.0
+FILLS = {11: 50.0, 19: 90.0}
+CELLS = (1, 7, 28)
+
+FIRST_CALL = """
+import time, numpy as np
+began = time.perf_counter()
+from pidpipe.config import load_config
+from pidpipe.dem import advance, start
+from pidpipe.dem.from_scene import dem_scene
+from pidpipe.cell.scene import CellScene
+imported = time.perf_counter()
+scene = dem_scene(CellScene.from_config(load_config()), 500.0, 5.0)
+positions = np.loadtxt(r"{packing}", delimiter=",")
+scene, state, ws = start(scene, positions)
+advance(scene, state, ws, 1)
+print(imported - began, time.perf_counter() - imported)
+"""
 
 
-def time_numpy_dem(config: dict, positions: np.ndarray, batch: int, cycles: int) -> dict:
-    """Wall time of ``cycles`` cycles of a batch of identical cells (after one warm-up cycle)."""
-    scene = scene_from_config(config, FREQ_HZ, [ACCEL_G] * batch)
-    scene, state, ws = start(scene, positions)
+def compile_times(packing_csv: Path) -> dict:
+    """Seconds to import pidpipe.dem and to make the first kernel calls, with an empty Numba
+    cache and then with the cache the first process wrote."""
+    out = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for label in ("empty cache", "cached"):
+            done = subprocess.run([sys.executable, "-c", FIRST_CALL.format(packing=packing_csv)],
+                                  env=env, capture_output=True, text=True, check=True)
+            imported, first_call = map(float, done.stdout.split())
+            out[label] = (imported, first_call)
+    return out
+
+
+def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int) -> dict:
+    """Compiled DEM: wall and CPU time of ``cycles`` cycles after one warm-up cycle."""
+    scene = dem_scene(CellScene.from_config(config), FREQ_HZ, [ACCEL_G] * n_cells)
+    scene, state, ws = start(scene, np.stack([positions] * n_cells))
     run_cycles(scene, state, ws, 1)
-    began = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     run_cycles(scene, state, ws, cycles)
-    seconds = time.perf_counter() - began
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     steps = cycles * scene.steps_per_cycle
-    return dict(batch=batch, steps=steps, seconds=seconds,
-                particle_steps_per_s=state.n_spheres * batch * steps / seconds,
-                us_per_cell_step=seconds / (steps * batch) * 1e6)
+    particle_steps = len(positions) * n_cells * steps
+    return dict(steps=steps, seconds=wall, cpu_seconds=cpu,
+                particle_steps_per_s=particle_steps / wall,
+                cpu_particle_steps_per_s=particle_steps / cpu)
 
 
-def time_liggghts(config: dict, positions: np.ndarray, workdir: Path) -> dict:
-    """LIGGGHTS' loop time per particle-step on the same packing and case."""
-    from pidpipe.case import run_case
+def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Path) -> dict:
+    """LIGGGHTS: its loop time for 1 + ``cycles`` cycles of ``n_cells`` cells of the packing.
+
+    More cells than one run may hold (:data:`pidpipe.cell.layout.MAX_CELLS`) run as equal
+    runs of fewer cells, one after the other; their particle-steps and loop times add up.
+    """
     from pidpipe.cases import CaseSpec
-    from pidpipe.packing import Packing
+    from pidpipe.cell.layout import MAX_CELLS
+    from pidpipe.liggghts.shake import run_case
 
-    cell_height = config["geometry"]["core_height_m"]
-    radius = config["materials"][config["particle_material"]]["radius_m"]
-    packing = Packing(positions_m=positions.tolist(), radius_m=radius,
-                      n_spheres=len(positions), seed=0,
-                      pile_height_m=float(positions[:, 2].max() + radius + cell_height / 2),
-                      lid_height_m=cell_height, max_speed_m_s=0.0, settle_time_s=0.0,
-                      fill_pct=50.0)
-    record = run_case(config, CaseSpec(FREQ_HZ, ACCEL_G, 50.0), packing, workdir)
-    engine = record["engine"]
-    return dict(steps=engine["steps"], seconds=engine["liggghts_loop_time_s"],
-                particle_steps_per_s=len(positions) * engine["steps"]
-                / engine["liggghts_loop_time_s"])
+    config = copy.deepcopy(config)
+    config["fidelity"].update(transient_cycles=1, transient_min_time_s=0.0,
+                              measured_cycles=cycles)
+    runs = -(-n_cells // MAX_CELLS)
+    steps = particle_steps = seconds = cpu_seconds = 0
+    for run in range(runs):
+        cells = n_cells // runs
+        record = run_case(ShakeSettings.from_config(config),
+                          CaseSpec(FREQ_HZ, ACCEL_G, packing.fill_pct),
+                          [packing] * cells, workdir / f"run{run}")
+        engine = record["engine"]
+        steps = engine["steps"]
+        particle_steps += packing.n_spheres * cells * engine["steps"]
+        seconds += engine["liggghts_loop_time_s"]
+        cpu_seconds += engine["liggghts_cpu_time_s"]
+    return dict(steps=steps, runs=runs, seconds=seconds, cpu_seconds=cpu_seconds,
+                particle_steps_per_s=particle_steps / seconds,
+                cpu_particle_steps_per_s=particle_steps / cpu_seconds)
+
+
+def runs_note(runs: int) -> str:
+    """`` (2 runs)`` when LIGGGHTS' cells were split over several runs."""
+    return "" if runs == 1 else f" ({runs} runs)"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cycles", type=int, default=2, help="timed cycles per batch size")
-    parser.add_argument("--liggghts", action="store_true", help="also time LIGGGHTS")
+    parser.add_argument("--cycles", type=int, default=4, help="timed cycles per scene")
+    parser.add_argument("--no-liggghts", action="store_true", help="time the compiled DEM only")
     args = parser.parse_args()
+    from pidpipe.liggghts.pour import pour
+
     config = load_config()
-    positions = np.loadtxt(PACKING, delimiter=",")
-    results = [time_numpy_dem(config, positions, batch, args.cycles) for batch in (1, 4, 8)]
-    lines = [f"Case: {len(positions)} spheres, {FREQ_HZ:g} Hz, {ACCEL_G:g} g, default fidelity; "
-             f"load average at the end {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores.", "",
-             "| solver | cells k | steps | wall s | us per cell-step | particle-steps/s |",
-             "|---|---|---|---|---|---|"]
-    for r in results:
-        lines.append(f"| numpy-dem | {r['batch']} | {r['steps']} | {r['seconds']:.2f} | "
-                     f"{r['us_per_cell_step']:.1f} | {r['particle_steps_per_s']:.3g} |")
-    if args.liggghts:
-        with tempfile.TemporaryDirectory() as scratch:
-            lig = time_liggghts(config, positions, Path(scratch))
-        lines.append(f"| liggghts (loop time) | 1 | {lig['steps']} | {lig['seconds']:.2f} | "
-                     f"{lig['seconds'] / lig['steps'] * 1e6:.1f} | "
-                     f"{lig['particle_steps_per_s']:.3g} |")
-        lines += ["", "LIGGGHTS / numpy-dem particle-steps per second: " + ", ".join(
-            f"k = {r['batch']}: {lig['particle_steps_per_s'] / r['particle_steps_per_s']:.1f}x"
-            for r in results)]
-    append("NumPy DEM speed", "python benchmarks/bench_dem.py"
-           + (" --liggghts" if args.liggghts else ""), lines)
+    load_start = os.getloadavg()[0]
+    lines = []
+    with tempfile.TemporaryDirectory() as scratch:
+        scratch = Path(scratch)
+        pouring = PourSettings.from_config(config)
+        packings = {n: pour(pouring, fill, 0, scratch / f"pour{n}") for n, fill in FILLS.items()}
+        for n, packing in packings.items():
+            assert packing.n_spheres == n, (n, packing.n_spheres)
+        csv = scratch / "packing11.csv"
+        np.savetxt(csv, packings[11].centres(), delimiter=",")
+        compiled = compile_times(csv)
+        rows = []
+        for n, packing in packings.items():
+            for k in CELLS:
+                dem = time_dem(config, packing.centres(), k, args.cycles)
+                lig = None if args.no_liggghts else time_liggghts(
+                    config, packing, k, args.cycles, scratch / f"shake{n}_{k}")
+                rows.append((n, k, dem, lig))
+                print(n, k, dem, lig, flush=True)
+    lines.append(f"Scene: 500 Hz, 5 g, default fidelity, {args.cycles} timed cycles; packings "
+                 "poured by LIGGGHTS (seed fidelity.seed), one per size, repeated in every cell. "
+                 f"Load average {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} at the "
+                 f"end, on {os.cpu_count()} cores.")
+    lines += ["", "Wall: the DEM's wall time against LIGGGHTS' loop time. CPU: the DEM's process "
+              "CPU time against the LIGGGHTS process's (which includes its start-up: reading "
+              "the mesh and the set-up run, so the CPU ratio favours the DEM a little).", "",
+              "| spheres | cells | DEM steps | DEM wall s | DEM CPU s | DEM ns per particle-step "
+              "(wall / CPU) | LIGGGHTS steps | LIGGGHTS loop s | LIGGGHTS CPU s | LIGGGHTS ns "
+              "per particle-step (loop / CPU) | DEM / LIGGGHTS, wall | DEM / LIGGGHTS, CPU |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for n, k, dem, lig in rows:
+        lig_cols = ("- | - | - | - | - | -" if lig is None else
+                    f"{lig['steps']}{runs_note(lig['runs'])} | {lig['seconds']:.2f} | "
+                    f"{lig['cpu_seconds']:.2f} | {1e9 / lig['particle_steps_per_s']:.0f} / "
+                    f"{1e9 / lig['cpu_particle_steps_per_s']:.0f} | "
+                    f"{dem['particle_steps_per_s'] / lig['particle_steps_per_s']:.1f}x | "
+                    f"{dem['cpu_particle_steps_per_s'] / lig['cpu_particle_steps_per_s']:.1f}x")
+        lines.append(f"| {n} | {k} | {dem['steps']} | {dem['seconds']:.3f} | "
+                     f"{dem['cpu_seconds']:.3f} | {1e9 / dem['particle_steps_per_s']:.0f} / "
+                     f"{1e9 / dem['cpu_particle_steps_per_s']:.0f} | {lig_cols} |")
+    lines += ["", "Compiled kernel, first call in a fresh process (import of pidpipe.dem, then "
+              "start + one step of one cell of 11 spheres):"]
+    for label, (imported, first_call) in compiled.items():
+        lines.append(f"- {label}: import {imported:.2f} s, first call {first_call:.2f} s")
+    append("Compiled DEM against LIGGGHTS", "python benchmarks/bench_dem.py"
+           + f" --cycles {args.cycles}" + (" --no-liggghts" if args.no_liggghts else ""), lines)
 
 
 if __name__ == "__main__":

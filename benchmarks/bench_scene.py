@@ -2,7 +2,7 @@
 
 The campaign shakes one cell and multiplies its C_eq by N = 441. For each case (50 % fill;
 500 Hz, 5 g and 1000 Hz, 10 g), at the default fidelity of config.yaml, this runs
-:func:`pidpipe.scene_study.run_scene_study`: replicate packings 0-18 each alone, the 7- and
+:func:`pidpipe.studies.scene.run_scene_study`: replicate packings 0-18 each alone, the 7- and
 19-cell patches with packings 0-6 and 0-18 in one run each, and the 441-cell coupon (21 x 21)
 with 441 distinct packings (replicates 0-440, each poured as the campaign pours it) in one
 run, its cost estimated first from a 3-cycle run (the window is shortened, and the table says
@@ -26,11 +26,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from _record import append
 
 from pidpipe.config import load_config
-from pidpipe.scene_study import plot_scenes, write_scene_study
+from pidpipe.studies.scene import plot_scenes, write_scene_study
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "results" / "scene"

@@ -27,14 +27,15 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from _record import append
 
+from pidpipe.cell.patch import ring_centres
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
-from pidpipe.packing import cell_from_config
-from pidpipe.patch import ring_centres
-from pidpipe.scene import replicate_packings, run_patch
-from pidpipe.scene_study import usable_packings
+from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.liggghts.patch_run import run_patch
+from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.studies.scene import usable_packings
 
 WORK = Path(__file__).resolve().parent.parent / "results" / "work" / "scene"
 PACKINGS = 19
@@ -52,7 +53,7 @@ def main(argv: list[str] | None = None) -> None:
     tag = f"f{freq:g}Hz_G{accel:g}"
     config = load_config()
     records = WORK / "records"
-    poured, _ = replicate_packings(config, float(config["scene"]["fill_pct"]), PACKINGS,
+    poured, _ = replicate_packings(PourSettings.from_config(config), float(config["scene"]["fill_pct"]), PACKINGS,
                                    WORK / "packings")
     packings, refused = usable_packings(poured)
     if refused or len(packings) < PACKINGS:
@@ -65,14 +66,14 @@ def main(argv: list[str] | None = None) -> None:
         "19-cell patch (bench_scene)": _ceq(json.loads((records / f"{tag}_patch19.json").read_text()), PACKINGS),
         "coupon, cells 0-18 (bench_scene)": _ceq(json.loads((records / f"{tag}_coupon.json").read_text()), PACKINGS),
     }
-    cell = cell_from_config(config)
+    cell = CellScene.from_config(config).cell
     variants = {"alone, nudged by 1 nm": (np.array([[1e-9, 0.0]]), False),
                 "alone, at the 7-cell patch's cell 1": (ring_centres(cell, 1)[1:2], False),
                 "alone at the origin, walls flipped": (np.zeros((1, 2)), True)}
     contained = True
     for name, (centre, flip) in variants.items():
         key = name.split(",")[-1].strip().split()[0]
-        runs = [run_patch(config, freq, accel, [packings[k]], centre,
+        runs = [run_patch(ShakeSettings.from_config(config), freq, accel, [packings[k]], centre,
                           WORK / "runs" / tag / f"realisation_{key}" / f"single{k}",
                           f"{tag}_{key}{k}", flip_normals=flip) for k in range(PACKINGS)]
         contained &= all(run["contained"] for run in runs)

@@ -21,11 +21,13 @@ from pathlib import Path
 import numpy as np
 from _record import append
 
-from pidpipe.case import run_case
 from pidpipe.cases import CaseSpec
+from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
-from pidpipe.impacts import pair_restitution, wall_restitution
-from pidpipe.packing import pour
+from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.liggghts.impacts import pair_restitution, wall_restitution
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
 
 VALIDATION_CASES = [(1000, 10), (1000, 1), (500, 5), (100, 10), (100, 1)]
 
@@ -35,8 +37,8 @@ def restitution_lines(scratch: Path) -> list[str]:
     for fraction in (0.4, 0.2, 0.1, 0.05):
         cfg = load_config()
         cfg["fidelity"]["timestep_rayleigh_fraction"] = fraction
-        lines.append(f"| {fraction} | {wall_restitution(cfg, 0.5, scratch / 'w'):.4f} | "
-                     f"{pair_restitution(cfg, 0.5, scratch / 'p'):.4f} |")
+        lines.append(f"| {fraction} | {wall_restitution(CellScene.from_config(cfg), 0.5, scratch / 'w'):.4f} | "
+                     f"{pair_restitution(CellScene.from_config(cfg), 0.5, scratch / 'p'):.4f} |")
     return lines + ["(impact speed 0.5 m/s)", ""]
 
 
@@ -45,7 +47,7 @@ def elastic_lines(scratch: Path, packing) -> list[str]:
     cfg["fidelity"].update(transient_cycles=2, transient_min_time_s=0.0, measured_cycles=60, friction=False)
     for pair in cfg["pairs"]:
         pair["restitution"] = 1.0
-    cycles = run_case(cfg, CaseSpec(500, 5, 50), packing, scratch / "elastic")["cycles"]
+    cycles = run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 50), packing, scratch / "elastic")["cycles"]
     dissipated, exchanged = np.array(cycles["dissipated_j"][2:]), np.array(cycles["gross_work_j"][2:])
     return [f"e = 1, mu = 0, 500 Hz, 5 g, 11 spheres, 60 cycles: mean E_d / mean work exchanged per "
             f"cycle = {dissipated.mean() / exchanged.mean():+.4%}; per-cycle std "
@@ -58,7 +60,7 @@ def capacity_lines(scratch: Path) -> list[str]:
     cfg["fill"]["definition"] = "source_36"
     lines = ["| spheres | pile heights, seeds 0-4 (mm) | below the 25.4 mm lid |", "|---|---|---|"]
     for count in (20, 21, 22):
-        piles = [pour(cfg, 100.0 * count / 36 + 1e-9, k, scratch / "pour").pile_height_m * 1e3
+        piles = [pour(PourSettings.from_config(cfg), 100.0 * count / 36 + 1e-9, k, scratch / "pour").pile_height_m * 1e3
                  for k in range(5)]
         lines.append(f"| {count} | {', '.join(f'{p:.2f}' for p in piles)} | "
                      f"{sum(p <= 25.4 for p in piles)} of 5 |")
@@ -71,19 +73,19 @@ def steady_lines(scratch: Path, packing) -> list[str]:
         cfg = load_config()
         if minimum is not None:
             cfg["fidelity"]["transient_min_time_s"] = minimum
-        record = run_case(cfg, CaseSpec(1000, 5, 50), packing, scratch / "steady")
+        record = run_case(ShakeSettings.from_config(cfg), CaseSpec(1000, 5, 50), packing, scratch / "steady")
         lines.append(f"1000 Hz, 5 g, 50 %, {label}: {record['fidelity']['transient_cycles']} transient "
                      f"cycles, drift {record['energy_drift_fraction']:.3f}, status {record['status']}")
     return lines + [""]
 
 
 def validation_lines(scratch: Path, packing) -> list[str]:
-    from pidpipe.validation import run_validation
+    from pidpipe.studies.validation import run_validation
 
     cfg = load_config()
     cfg["fidelity"].update(transient_cycles=5, measured_cycles=24)
     cases = [CaseSpec(f, g, 50) for f, g in VALIDATION_CASES]
-    table = run_validation(cfg, cases, {"r50pct_rep0": packing}, scratch / "validation")
+    table = run_validation(ShakeSettings.from_config(cfg), cases, {"r50pct_rep0": packing}, scratch / "validation")
     lines = ["| case | transient cycles LIGGGHTS / DEM | C_eq LIGGGHTS N s/m | C_eq NumPy DEM N s/m | "
              "ratio | difference / combined SEM | agree (2 SEM) | flags LIGGGHTS / DEM | "
              "DEM term-by-term vs balance |",
@@ -109,7 +111,7 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         scratch = Path(folder)
-        packing = pour(load_config(), 50, 0, scratch / "pour50")
+        packing = pour(PourSettings.from_config(load_config()), 50, 0, scratch / "pour50")
         if args.validation_only:
             lines = validation_lines(scratch, packing)
         else:

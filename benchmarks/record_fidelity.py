@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 from _record import append
 
-from pidpipe.fidelity_study import REFERENCE, summary_markdown
+from pidpipe.studies.fidelity import REFERENCE, summary_markdown
 
 
 def main() -> None:

@@ -1,8 +1,11 @@
 """The ``pidpipe`` command.
 
 ``pidpipe case --freq-hz 500 --accel-g 5 --fill-pct 50`` runs one case (pour, tap, shake) and
-prints C_eq with its standard error and the fidelity that produced it; ``--record`` writes the
+prints C_eq with its standard error and the fidelity that produced it (``--engine dem`` shakes
+it in the compiled in-repo DEM instead of LIGGGHTS, on the same LIGGGHTS pour); ``--record`` writes the
 full machine-readable record. ``pidpipe check-config`` validates a config and prints the grid.
+``pidpipe optimise [--table FILE]`` runs the optimisation stage alone on the campaign's C_eq
+table or any table with the four required columns, and prints the designs.
 User errors print one line and exit 2, never a traceback.
 """
 
@@ -32,8 +35,25 @@ def _parser() -> argparse.ArgumentParser:
     case.add_argument("--workdir", type=Path, default=Path("work/cli"),
                       help="folder for decks and LIGGGHTS output (default: work/cli)")
     case.add_argument("--record", type=Path, help="write the case record (JSON) here")
+    case.add_argument("--engine", choices=("liggghts", "dem"),
+                      help="solver that shakes the case (default: the config's engine)")
 
     commands.add_parser("check-config", help="validate the config and print the campaign")
+
+    optimise = commands.add_parser(
+        "optimise", help="optimise the designs on a C_eq table and print them",
+        description="Fit the configured surrogate to a C_eq table (columns freq_hz, accel_g, "
+                    "fill_pct, ceq_coupon_ns_m; ceq_coupon_sem_ns_m for intervals) and print the "
+                    "peak, band_mean and worst_case design of every environment of the config.")
+    optimise.add_argument("--table", type=Path,
+                          help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
+                               "results/ceq_table.csv")
+    optimise.add_argument("--config", type=Path, default=argparse.SUPPRESS,
+                          help="config file (default: config.yaml)")
+    optimise.add_argument("--draws", type=int,
+                          help="bootstrap draws (default: optimisation.bootstrap.draws; 0: none)")
+    optimise.add_argument("--output", type=Path,
+                          help="also write the designs as CSV here (and <stem>.json, the full results)")
     return parser
 
 
@@ -54,26 +74,32 @@ def _check_case_arguments(args: argparse.Namespace, config: dict) -> None:
 
 def run_case_command(args: argparse.Namespace) -> int:
     """Pour, check and shake one case; print the result."""
-    from pidpipe.case import run_case, write_record
     from pidpipe.cases import CaseSpec
+    from pidpipe.cell.packing import check_packing
     from pidpipe.config import load_config
-    from pidpipe.fidelity import transient_cycles_for
-    from pidpipe.packing import check_packing, pour
+    from pidpipe.config.settings import PourSettings, ShakeSettings
+    from pidpipe.liggghts.pour import pour
+    from pidpipe.liggghts.shake import write_record
+    from pidpipe.steps.cases import case_runner
 
     config = load_config(args.config)
+    if args.engine:
+        config["engine"] = args.engine
     _check_case_arguments(args, config)
+    pouring, shaking = PourSettings.from_config(config), ShakeSettings.from_config(config)
+    run_case = case_runner(shaking)
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
-    cells = int(config["fidelity"]["cells_per_run"])
+    cells = shaking.sampling.cells_per_run
     replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
     print(f"pidpipe: {case.case_id}: pouring {cells} packing(s) ...", file=sys.stderr, flush=True)
-    packings = [pour(config, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
+    packings = [pour(pouring, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
                 for k in replicates]
     for packing in packings:
         check_packing(packing, case.case_id)
-    cycles = transient_cycles_for(config, case.freq_hz) + config["fidelity"]["measured_cycles"]
+    cycles = shaking.sampling.transient_cycles_at(case.freq_hz) + shaking.sampling.measured_cycles
     print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
-          f"for {cycles} cycles ...", file=sys.stderr, flush=True)
-    record = run_case(config, case, packings, args.workdir / case.case_id)
+          f"for {cycles} cycles in {shaking.engine} ...", file=sys.stderr, flush=True)
+    record = run_case(shaking, case, packings, args.workdir / case.case_id)
     if args.record:
         write_record(record, args.record)
     print(format_result(record))
@@ -98,8 +124,8 @@ def format_result(record: dict) -> str:
         f"  fidelity        : dt = {fid['timestep_s']:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
         f"{fid['transient_cycles']} transient + {record['n_cycles']} measured cycles, "
         f"E scale {fid['youngs_modulus_scale']:g}, seed {fid['seed']}",
-        f"  engine          : {record['engine']['liggghts_version'].split(',')[0]}, "
-        f"{record['engine']['liggghts_wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
+        f"  engine          : {record['solver']} ({record['engine']['version'].split(',')[0]}), "
+        f"{record['engine']['wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
     ]
     if record.get("cells"):
         lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "
@@ -112,7 +138,13 @@ def format_result(record: dict) -> str:
 def check_config_command(args: argparse.Namespace) -> int:
     """Validate the config and print what the campaign will run."""
     from pidpipe.cases import grid_cases
-    from pidpipe.config import budget_spheres, full_cell_spheres, load_config, spheres_for_fill
+    from pidpipe.config import (
+        budget_spheres,
+        full_cell_spheres,
+        load_config,
+        panel_n_cells,
+        spheres_for_fill,
+    )
 
     config = load_config(args.config)
     grid = config["grid"]
@@ -122,14 +154,63 @@ def check_config_command(args: argparse.Namespace) -> int:
     print("  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
                                               for r in grid["fill_pct"])
           + f" (full cell = {full_cell_spheres(config)}, fill.definition = {config['fill']['definition']})")
-    print(f"  particle budget: {budget_spheres(config)} spheres; environments: "
+    print(f"  particle budget: {budget_spheres(config)} spheres for a panel of {panel_n_cells(config)} "
+          f"cells; environments: "
           + "; ".join(env["name"] for env in config["environments"]))
+    return 0
+
+
+def optimise_command(args: argparse.Namespace) -> int:
+    """Fit the surrogate to a C_eq table, optimise every design, print them."""
+    from pidpipe.config import load_config
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.designs import (
+        format_designs,
+        write_results_csv,
+        write_results_json,
+    )
+    from pidpipe.design.optimisation import Budget
+    from pidpipe.design.optimum import optimise_panel
+    from pidpipe.design.surrogate import fit_surrogate
+    from pidpipe.files import write_atomic
+    from pidpipe.steps.design import (
+        bootstrap_settings,
+        environment_objects,
+        search_settings,
+    )
+    from pidpipe.steps.params import budget_params
+
+    config = load_config(args.config)
+    if not config["environments"]:
+        raise PidpipeError(f"{args.config}: no environments to optimise for (config key environments)")
+    table_path = args.table or Path(config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv")
+    table = read_ceq_table(table_path)
+    surrogate = fit_surrogate(table, method=config["surrogate"]["method"], source=str(table_path),
+                              allow_holes=config["surrogate"]["allow_holes"])
+    bootstrap = dict(config["optimisation"]["bootstrap"])
+    if args.draws is not None:
+        if args.draws < 0:
+            raise PidpipeError(f"--draws {args.draws} is not allowed: it must be >= 0")
+        bootstrap["draws"] = args.draws
+    print(f"pidpipe: {surrogate.describe()}; {bootstrap['draws']} bootstrap draws ...",
+          file=sys.stderr, flush=True)
+    optimum = optimise_panel(surrogate, environment_objects(config["environments"]),
+                             Budget(**budget_params(config)), search_settings(config["optimisation"]),
+                             bootstrap_settings(bootstrap))
+    print(format_designs(optimum.results))
+    if optimum.note:
+        print(f"note: {optimum.note}")
+    if args.output:
+        write_atomic(args.output, lambda tmp: write_results_csv(optimum.results, tmp))
+        write_atomic(args.output.with_suffix(".json"),
+                     lambda tmp: write_results_json(optimum.results, tmp))
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    handlers = {"case": run_case_command, "check-config": check_config_command}
+    handlers = {"case": run_case_command, "check-config": check_config_command,
+                "optimise": optimise_command}
     try:
         return handlers[args.command](args)
     except PidpipeError as exc:

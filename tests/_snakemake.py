@@ -1,6 +1,6 @@
 """Running the repository's Snakefile from tests: the command, its job table, test configs.
 
-Shared by the workflow tests (``tests/test_workflow.py``, ``tests/test_interruption.py``). Every
+Shared by the workflow tests (``tests/workflow/test_workflow.py``, ``tests/workflow/test_interruption.py``). Every
 run uses ``--cores 2`` and its own working directory (``--directory``), so tests never touch the
 repository's ``results/``.
 """

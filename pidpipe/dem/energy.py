@@ -7,7 +7,7 @@ The balance over a cycle (steps a+1 .. b) is
 with W_wall the work of the moving walls on the spheres, P = m g (z - z_0) (z_0 the centre of
 mass at the start, as the LIGGGHTS path measures it), U the elastic energy stored in the
 contacts (Hertz 8/15 E* sqrt(R*) delta^{5/2} normal, 1/2 k_t |s|^2 tangential, from
-:mod:`pidpipe.contact`, the functions the LIGGGHTS path's ledger uses) and D the dissipated
+:mod:`pidpipe.physics.contact`, the functions the LIGGGHTS path's ledger uses) and D the dissipated
 energy. Velocity Verlet moves a sphere over step n by dt v_{n-1/2} under the mean force
 (F_{n-1} + F_n)/2, and then
 
@@ -26,10 +26,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from pidpipe import contact
 from pidpipe.dem.contacts import Workspace
 from pidpipe.dem.scene import ContactLaw, Scene
 from pidpipe.dem.state import State
+from pidpipe.physics import contact
 
 
 def kinetic_energy(scene: Scene, state: State) -> tuple[np.ndarray, np.ndarray]:
@@ -76,8 +76,8 @@ def contact_type_energy(law: ContactLaw, overlap_m: np.ndarray,
     Returns
     -------
     ndarray, shape (n_batch,)
-        Hertz normal energy (:func:`pidpipe.contact.hertz_normal_energy`) plus tangential
-        spring energy (:func:`pidpipe.contact.tangential_spring_energy`) summed over the
+        Hertz normal energy (:func:`pidpipe.physics.contact.hertz_normal_energy`) plus tangential
+        spring energy (:func:`pidpipe.physics.contact.tangential_spring_energy`) summed over the
         contacts, J.
     """
     normal = contact.hertz_normal_energy(law.youngs_eff_pa, law.radius_eff_m, overlap_m)

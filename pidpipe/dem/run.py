@@ -1,11 +1,14 @@
-"""Running the NumPy DEM: stepping, per-cycle energy ledgers and the case record.
+"""Running the DEM: stepping, per-cycle energy ledgers and the case record.
+
+Every function here runs the compiled kernel (:mod:`pidpipe.dem.compiled`); the NumPy
+reference that tests compare it with is :mod:`pidpipe.dem.reference`.
 
 The record of :func:`simulate_cell` has the shape of the LIGGGHTS path's
-(:func:`pidpipe.case.run_case`) so that the two solvers compare case by case: the summary of
-the measured cycles from :func:`pidpipe.damping.summarise_cycles` at the top level, per-cycle
+(:func:`pidpipe.liggghts.shake.run_case`) so that the two solvers compare case by case: the summary of
+the measured cycles from :func:`pidpipe.measurement.statistics.summarise_cycles` at the top level, per-cycle
 arrays (wall work, energy change, dissipation by the balance and term by term, by contact
 type) under ``cycles``, and the fidelity settings. The measured cycles are chosen by the same
-rule as the LIGGGHTS path's (:func:`pidpipe.steady_state.assess_steady_state`): the configured
+rule as the LIGGGHTS path's (:func:`pidpipe.measurement.steady_state.assess_steady_state`): the configured
 transient is a floor, and a longer transient that MSER detects in the run's own series (a bed
 that collapses a few cycles in, say) is discarded too.
 """
@@ -18,25 +21,50 @@ from typing import Callable
 
 import numpy as np
 
-from pidpipe.dem.contacts import (DISSIPATION_TERMS, Workspace, accumulated_dissipation,
-                                  reset_accumulators)
-from pidpipe.dem.energy import centre_of_mass_height, ledger_energy
-from pidpipe.dem.integrator import set_up, step
+from pidpipe.dem import compiled
+from pidpipe.dem.contacts import DISSIPATION_TERMS
+from pidpipe.dem.energy import centre_of_mass_height
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State, initial_state
-from pidpipe.damping import summarise_cycles
 from pidpipe.errors import PackingError
-from pidpipe.steady_state import SteadyState, assess_steady_state
+from pidpipe.measurement.statistics import summarise_cycles
+from pidpipe.measurement.steady_state import SteadyState, assess_steady_state
 
-SOLVER_NAME = "numpy-dem"
+SOLVER_NAME = compiled.KERNEL_NAME
 CONTACT_TYPES: tuple[str, ...] = ("pp", "pw")
 """Contact types of the term-by-term dissipation: sphere-sphere and sphere-wall."""
 
-Observer = Callable[[State, Workspace], None]
+Observer = Callable[[State, "compiled.KernelWorkspace"], None]
+
+
+def prepare(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad_s=None,
+            overlap_tolerance_m: float | None = None) -> tuple[Scene, State]:
+    """The initial state of a batch, checked to lie in the cell, and the scene sized to it.
+
+    Parameters and errors as :func:`start`; the forces are not evaluated.
+    """
+    n_batch = scene.n_batch
+    state = initial_state(positions_m, velocities_m_s, angular_velocities_rad_s,
+                          n_batch=n_batch)
+    if state.n_batch != n_batch:
+        if n_batch != 1:
+            raise ValueError(f"{state.n_batch} packings for a scene of {n_batch} cells")
+        scene = dataclasses.replace(scene, accel_g=np.repeat(scene.accel_g, state.n_batch))
+    tol = 0.05 * scene.radius_m if overlap_tolerance_m is None else overlap_tolerance_m
+    centres = np.moveaxis(state.x, 0, 2).reshape(-1, 3)
+    inside = scene.cell.contains_spheres(centres, scene.radius_m, tol_m=tol)
+    if not np.all(inside):
+        bad = np.flatnonzero(~inside)
+        raise PackingError(
+            f"{bad.size} sphere(s) of radius {scene.radius_m:g} m lie outside the cell by more "
+            f"than {tol:g} m (first: flat index {bad[0]} at {centres[bad[0]]} m); "
+            "give positions of a packing settled in this cell")
+    return scene, state
 
 
 def start(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad_s=None,
-          overlap_tolerance_m: float | None = None) -> tuple[Scene, State, Workspace]:
+          overlap_tolerance_m: float | None = None
+          ) -> tuple[Scene, State, compiled.KernelWorkspace]:
     """Initial state (at rest unless velocities are given) with its forces evaluated.
 
     Parameters
@@ -55,45 +83,35 @@ def start(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad
     scene : Scene
         The scene with ``accel_g`` broadcast to the batch size.
     state : State
-    ws : Workspace
+    ws : pidpipe.dem.compiled.KernelWorkspace
+        The compiled kernel's contact history and accumulators.
 
     Raises
     ------
     PackingError
         If a sphere lies outside the cell by more than the tolerance.
     """
-    n_batch = scene.n_batch
-    state = initial_state(positions_m, velocities_m_s, angular_velocities_rad_s,
-                          n_batch=n_batch)
-    if state.n_batch != n_batch:
-        if n_batch != 1:
-            raise ValueError(f"{state.n_batch} packings for a scene of {n_batch} cells")
-        scene = dataclasses.replace(scene, accel_g=np.repeat(scene.accel_g, state.n_batch))
-    tol = 0.05 * scene.radius_m if overlap_tolerance_m is None else overlap_tolerance_m
-    centres = np.moveaxis(state.x, 0, 2).reshape(-1, 3)
-    inside = scene.cell.contains_spheres(centres, scene.radius_m, tol_m=tol)
-    if not np.all(inside):
-        bad = np.flatnonzero(~inside)
-        raise PackingError(
-            f"{bad.size} sphere(s) of radius {scene.radius_m:g} m lie outside the cell by more "
-            f"than {tol:g} m (first: flat index {bad[0]} at {centres[bad[0]]} m); "
-            "give positions of a packing settled in this cell")
-    ws = Workspace(scene, state)
-    set_up(scene, state, ws)
+    scene, state = prepare(scene, positions_m, velocities_m_s, angular_velocities_rad_s,
+                           overlap_tolerance_m)
+    ws = compiled.KernelWorkspace(scene, state)
+    compiled.set_up(scene, state, ws)
     return scene, state, ws
 
 
-def advance(scene: Scene, state: State, ws: Workspace, n_steps: int,
+def advance(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_steps: int,
             observer: Observer | None = None) -> None:
-    """Take ``n_steps`` steps, calling ``observer(state, ws)`` after each one if given."""
+    """Take ``n_steps`` steps in the compiled kernel, in one call, or one step per call with
+    ``observer(state, ws)`` called after each step if given."""
+    if observer is None:
+        compiled.advance(state, ws, int(n_steps))
+        return
     for _ in range(int(n_steps)):
-        step(scene, state, ws)
-        if observer is not None:
-            observer(state, ws)
+        compiled.advance(state, ws, 1)
+        observer(state, ws)
 
 
-def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict:
-    """Run whole excitation cycles and keep the energy ledger of each.
+def run_cycles(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_cycles: int) -> dict:
+    """Run whole excitation cycles in one call of the compiled kernel and keep the ledger of each.
 
     Returns
     -------
@@ -111,36 +129,45 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict
           ``elastic_j``: plain energies at the cycle boundaries, shape (n_batch, n_cycles + 1);
           the potential energy is zero at the centre of mass the run started from
         - ``ledger_energy_j``: K^ + P + U at the boundaries, shape (n_batch, n_cycles + 1)
-        - ``centre_of_mass_z_m``: at the boundaries, shape (n_batch, n_cycles + 1), m
+        - ``centre_of_mass_z_m``, ``lowest_z_m``, ``highest_z_m``: the centre of mass and the
+          lowest and highest sphere centre at the boundaries (lab frame), shape
+          (n_batch, n_cycles + 1), m
     """
-    n_batch = state.n_batch
-    steps = scene.steps_per_cycle
-    work = np.zeros((n_batch, n_cycles))
-    gross = np.zeros((n_batch, n_cycles))
-    terms = np.zeros((len(DISSIPATION_TERMS), len(CONTACT_TYPES), n_batch, n_cycles))
-    reference = centre_of_mass_height(state)
-    boundary = [ledger_energy(scene, state, ws, reference)]
-    com = [reference]
-    for cycle in range(n_cycles):
-        reset_accumulators(ws)
-        for _ in range(steps):
-            step(scene, state, ws)
-        work[:, cycle] = ws.wall_work_acc
-        gross[:, cycle] = ws.gross_wall_work_acc
-        terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)
-        boundary.append(ledger_energy(scene, state, ws, reference))
-        com.append(centre_of_mass_height(state))
-    stack = {key: np.stack([b[key] for b in boundary], axis=1) for key in boundary[0]}
-    change = np.diff(stack["ledger"], axis=1)
+    out = compiled.run_cycles(scene, state, ws, int(n_cycles), centre_of_mass_height(state))
+    boundary = {key: out[key] for key in ("kinetic_translational", "kinetic_rotational",
+                                          "potential", "elastic", "ledger")}
+    return cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
+                         out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
+
+
+def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
+                  boundary: dict[str, np.ndarray], com: np.ndarray, lowest: np.ndarray,
+                  highest: np.ndarray) -> dict:
+    """The per-cycle record of :func:`run_cycles` from its parts.
+
+    Parameters
+    ----------
+    work, gross : ndarray, shape (n_batch, n_cycles)
+        Wall work and work exchanged per cycle, J.
+    terms : ndarray, shape (4, 2, n_batch, n_cycles)
+        Dissipation by term (:data:`DISSIPATION_TERMS`) and contact type, J.
+    boundary : dict of ndarray, each (n_batch, n_cycles + 1)
+        ``kinetic_translational``, ``kinetic_rotational``, ``potential``, ``elastic`` and
+        ``ledger`` at the cycle boundaries, J.
+    com, lowest, highest : ndarray, shape (n_batch, n_cycles + 1)
+        Centre-of-mass height, and the lowest and highest sphere centre, at the boundaries, m.
+    """
+    change = np.diff(boundary["ledger"], axis=1)
     out = dict(wall_work_j=work, gross_work_j=gross, energy_change_j=change,
                dissipated_balance_j=work - change, dissipated_terms_j=terms.sum(axis=(0, 1)))
     for k, term in enumerate(DISSIPATION_TERMS):
         for c, ctype in enumerate(CONTACT_TYPES):
             out[f"{term}_{ctype}_j"] = terms[k, c]
     for key in ("kinetic_translational", "kinetic_rotational", "potential", "elastic"):
-        out[f"{key}_j"] = stack[key]
-    out["ledger_energy_j"] = stack["ledger"]
-    out["centre_of_mass_z_m"] = np.stack(com, axis=1)
+        out[f"{key}_j"] = boundary[key]
+    out["ledger_energy_j"] = boundary["ledger"]
+    out["centre_of_mass_z_m"] = com
+    out["lowest_z_m"], out["highest_z_m"] = lowest, highest
     return out
 
 
@@ -157,7 +184,7 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     transient_cycles, measured_cycles : int
         The configured transient (cycles discarded at least) and the measured cycles; the run
         is their sum, and a cell discards max(transient_cycles, MSER's detected transient), as
-        :func:`pidpipe.case.run_case` does.
+        :func:`pidpipe.liggghts.shake.run_case` does.
     block_cycles : int
         Cycles per block for the standard error of the mean.
     n_cells : int
@@ -169,9 +196,9 @@ def simulate_cell(scene: Scene, positions_m, *, transient_cycles: int, measured_
     -------
     list of dict, one per cell of the batch
         ``solver``, ``freq_hz``, ``accel_g``, ``n_spheres``; the keys of
-        :func:`pidpipe.damping.summarise_cycles` for the term-by-term E_d of the measured
+        :func:`pidpipe.measurement.statistics.summarise_cycles` for the term-by-term E_d of the measured
         cycles; ``status`` and ``flags`` (the steady-state checks only), and the keys of
-        :meth:`pidpipe.steady_state.SteadyState.as_record`; ``balance`` (the same summary
+        :meth:`pidpipe.measurement.steady_state.SteadyState.as_record`; ``balance`` (the same summary
         from the energy balance);
         ``balance_mismatch_fraction`` (term-by-term minus balance, over the balance, summed over
         the measured cycles); ``wall_work_cycle_mean_j``; ``dissipated_by_term_j`` (measured
@@ -257,6 +284,6 @@ def fidelity_record(scene: Scene, state: State, transient_cycles: int, measured_
 
 def _summarise(dissipated_j: np.ndarray, freq_hz: float, accel_g: float, n_cells: int,
                block_cycles: int) -> dict:
-    """:func:`pidpipe.damping.summarise_cycles` of one cell's measured cycles."""
+    """:func:`pidpipe.measurement.statistics.summarise_cycles` of one cell's measured cycles."""
     return summarise_cycles(np.asarray(dissipated_j, dtype=float), freq_hz, accel_g, n_cells,
                             block_cycles)

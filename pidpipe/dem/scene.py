@@ -1,7 +1,7 @@
 """The one-cell scene of the NumPy DEM: materials, contact laws, base motion and timestep.
 
 Everything here is immutable and computed once, before the time loop. The contact laws are
-LIGGGHTS 3.8's ``model hertz tangential history`` (see :mod:`pidpipe.contact`), written as
+LIGGGHTS 3.8's ``model hertz tangential history`` (see :mod:`pidpipe.physics.contact`), written as
 four coefficients so that the force kernel needs only sqrt(delta) and delta^(1/4):
 
 - k_n     = a_n sqrt(delta),  a_n = 4/3 E* sqrt(R*)                         [N/m]
@@ -19,37 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pidpipe import contact
-from pidpipe.geometry import HexCell
+from pidpipe.cell.geometry import HexCell
+from pidpipe.physics import contact
+from pidpipe.physics.materials import Material
 
 _SQRT_FIVE_SIXTHS = math.sqrt(5.0 / 6.0)
-
-
-@dataclass(frozen=True)
-class Material:
-    """An isotropic elastic material.
-
-    Parameters
-    ----------
-    youngs_modulus_pa : float
-        Young's modulus E, Pa.
-    poisson_ratio : float
-        Poisson's ratio nu.
-    density_kg_m3 : float
-        Density, kg/m^3 (used for particles only).
-    radius_m : float
-        Sphere radius, m (used for particles only).
-    """
-
-    youngs_modulus_pa: float
-    poisson_ratio: float
-    density_kg_m3: float = 0.0
-    radius_m: float = 0.0
-
-    def scaled(self, youngs_modulus_scale: float) -> "Material":
-        """The same material with E multiplied by ``youngs_modulus_scale``."""
-        return Material(self.youngs_modulus_pa * youngs_modulus_scale, self.poisson_ratio,
-                        self.density_kg_m3, self.radius_m)
 
 
 @dataclass(frozen=True)

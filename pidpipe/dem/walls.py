@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from pidpipe.geometry import HexCell
+from pidpipe.cell.geometry import HexCell
 
 
 def wall_motion(time_s: float, amplitude_m: np.ndarray, omega_rad_s: float

@@ -2,8 +2,8 @@
 
 Open MPI takes a process whose environment holds a SLURM step id for one rank of an
 srun-launched job and looks for SLURM's PMI server; with SLURM's default ``MpiDefault=none``
-there is none and LIGGGHTS aborts in MPI_Init. pidpipe.engine runs LIGGGHTS without the step's
-id (``liggghts_environment``); this runs a tiny deck through ``pidpipe.engine.run_deck`` in a
+there is none and LIGGGHTS aborts in MPI_Init. pidpipe.liggghts.process runs LIGGGHTS without the step's
+id (``liggghts_environment``); this runs a tiny deck through ``pidpipe.liggghts.process.run_deck`` in a
 real job step.
 """
 
@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from pidpipe.engine import SLURM_STEP_VARIABLES, liggghts_environment
+from pidpipe.liggghts.process import SLURM_STEP_VARIABLES, liggghts_environment
 
 TINY_DECK = """\
 atom_style granular
@@ -29,7 +29,7 @@ timestep 1e-5
 run 10
 """
 
-RUN = ("from pidpipe.engine import run_deck; "
+RUN = ("from pidpipe.liggghts.process import run_deck; "
        "print('steps', run_deck(__import__('sys').argv[1], 'tiny deck').steps)")
 
 

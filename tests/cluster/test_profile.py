@@ -15,9 +15,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from pidpipe import cluster_resources
-from pidpipe.campaign import CaseSpec, workflow_config
+from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
+from pidpipe.config.settings import ShakeSettings
+from pidpipe.steps import resources as cluster_resources
+from pidpipe.steps.params import workflow_config
 from tests._snakemake import SNAKEFILE, SNAKEMAKE, TEST_CONFIG
 
 PROFILES = Path(__file__).resolve().parents[2] / "profiles"
@@ -57,6 +59,7 @@ def test_every_case_job_asks_for_its_planned_runtime_and_measured_memory(tmp_pat
     assert len(jobs) == 8, run.stdout[-4000:]
     for case_id, resources in jobs:
         values = dict(item.split("=", 1) for item in resources.split(", "))
-        expected = cluster_resources.case_runtime_min(config, CaseSpec.from_id(case_id))
+        expected = cluster_resources.case_runtime_min(ShakeSettings.from_config(config),
+                                                      CaseSpec.from_id(case_id))
         assert int(values["runtime"]) == expected, (case_id, resources)
         assert int(values["mem_mb"]) == 1000

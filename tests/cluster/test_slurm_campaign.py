@@ -29,11 +29,25 @@ from pathlib import Path
 import psutil
 import pytest
 
-from pidpipe.campaign import campaign_cases, read_record
 from pidpipe.config import load_config
-from tests._snakemake import SNAKEFILE, SNAKEMAKE, TEST_CONFIG, WORKFLOW_MARKS, snakemake_command
-from tests.test_interruption import (_case_jobs, _finished_cases, _name, _processes_in,
-                                     _running_liggghts, _table_values, _tail)
+from pidpipe.design.records import read_record
+from pidpipe.steps.params import campaign_cases
+from tests._snakemake import (
+    SNAKEFILE,
+    SNAKEMAKE,
+    TEST_CONFIG,
+    WORKFLOW_MARKS,
+    snakemake_command,
+)
+from tests.workflow.test_interruption import (
+    _case_jobs,
+    _finished_cases,
+    _name,
+    _processes_in,
+    _running_liggghts,
+    _table_values,
+    _tail,
+)
 
 PROFILE = Path(__file__).resolve().parents[2] / "profiles" / "slurm"
 #: Faster status polling than the profile's, for the test only (s).

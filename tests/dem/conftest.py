@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pidpipe.cell.geometry import HexCell
 from pidpipe.dem import Material, make_scene
-from pidpipe.geometry import HexCell
 
 DATA = Path(__file__).parent / "data"
 ACRYLIC = Material(youngs_modulus_pa=2.84e9, poisson_ratio=0.402, density_kg_m3=1180.0,

@@ -12,8 +12,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pidpipe import contact
 from pidpipe.dem import advance, start
+from pidpipe.physics import contact
 from tests.dem.conftest import CELL, spec_scene
 
 SPEED = 0.1                  # impact speed, m/s

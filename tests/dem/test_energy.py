@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pidpipe import contact
 from pidpipe.dem import advance, elastic_energy, run_cycles, start, total_energy
+from pidpipe.physics import contact
 from tests.dem.conftest import CELL, spec_scene
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from pidpipe.dem import advance, simulate_cell, start
 from pidpipe.errors import PackingError
-from pidpipe.steady_state import assess_steady_state
+from pidpipe.measurement.steady_state import assess_steady_state
 from tests.dem.conftest import spec_scene
 
 
@@ -43,7 +43,7 @@ def test_case_record_matches_the_liggghts_record_keys(settled_11):
                 "ed_cycle_sem_j", "ceq_cell_ns_m", "ceq_coupon_ns_m", "cycles", "fidelity",
                 "wall_time_s", "wall_work_cycle_mean_j"):
         assert key in record
-    assert record["solver"] == "numpy-dem" and record["n_spheres"] == 11
+    assert record["solver"] == "numba-dem" and record["n_spheres"] == 11
     assert record["fidelity"]["steps_per_cycle"] * record["fidelity"]["timestep_s"] == \
         pytest.approx(1e-3)
     assert record["fidelity"]["rayleigh_fraction"] <= 0.2 and record["fidelity"]["seed"] == 7
@@ -62,7 +62,7 @@ def test_spheres_outside_the_cell_are_refused(settled_11):
 
 def test_record_discards_the_transient_by_the_liggghts_paths_rule(settled_11):
     """The cycles measured are those after max(configured, MSER-detected) transient cycles,
-    as in pidpipe.case.run_case, so that the two solvers average like with like."""
+    as in pidpipe.liggghts.shake.run_case, so that the two solvers average like with like."""
     scene = spec_scene(freq_hz=1000.0, accel_g=10.0)
     (record,) = simulate_cell(scene, settled_11, transient_cycles=1, measured_cycles=9,
                               block_cycles=1)

@@ -1,4 +1,4 @@
-"""Scene set-up: timestep rule, contact coefficients against pidpipe.contact, softening."""
+"""Scene set-up: timestep rule, contact coefficients against pidpipe.physics.contact, softening."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from pidpipe import contact
 from pidpipe.dem import choose_timestep
+from pidpipe.physics import contact
 from tests.dem.conftest import ACRYLIC, spec_scene
 
 

@@ -2,14 +2,20 @@
 
 import sys
 
-from pidpipe import campaign
-from pidpipe import cluster_resources
-from pidpipe import fidelity_study
+from pidpipe.cases import CaseSpec
+from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
+                                  campaign_cases, campaign_packing_ids, case_packing_ids,
+                                  environment_params, map_uncertainty_params,
+                                  optimisation_params)
+from pidpipe.config.settings import ShakeSettings
+from pidpipe.config.stages import stage_config
+from pidpipe.steps import resources as cluster_resources
+from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
 
 
-CASES = campaign.campaign_cases(config)
-PACKING_IDS = campaign.campaign_packing_ids(config)
+CASES = campaign_cases(config)
+PACKING_IDS = campaign_packing_ids(config)
 
 # Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
 CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
@@ -17,10 +23,10 @@ PACKING_PATTERN = "r{fill}pct_rep{replicate}"
 
 
 wildcard_constraints:
-    freq=campaign.WILDCARD_NUMBER,
-    accel=campaign.WILDCARD_NUMBER,
-    fill=campaign.WILDCARD_NUMBER,
-    replicate=campaign.WILDCARD_REPLICATE,
+    freq=WILDCARD_NUMBER,
+    accel=WILDCARD_NUMBER,
+    fill=WILDCARD_NUMBER,
+    replicate=WILDCARD_REPLICATE,
 
 
 def get_case_ids():
@@ -40,9 +46,9 @@ def get_packings():
 
 def get_case_packings(wildcards):
     """The packings a simulate_case job shakes, one per cell of its run (fidelity.cells_per_run)."""
-    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
+    case = CaseSpec.from_id(get_case_id(wildcards))
     return [f"results/packings/{packing_id}.json"
-            for packing_id in campaign.case_packing_ids(config, case)]
+            for packing_id in case_packing_ids(config, case)]
 
 
 def get_cells_per_run():
@@ -55,19 +61,20 @@ def get_case_id(wildcards):
 
 
 def get_case_runtime_min(wildcards, attempt):
-    """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.cluster_resources)."""
-    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
-    return cluster_resources.case_runtime_min(config, case, attempt)
+    """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.steps.resources)."""
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    return cluster_resources.case_runtime_min(settings, case, attempt)
 
 
 def get_packing_config():
     """The config values a packing depends on."""
-    return campaign.stage_config(config, "packing")
+    return stage_config(config, "packing")
 
 
 def get_case_config():
     """The config values a case depends on (its packing is an input)."""
-    return campaign.stage_config(config, "case")
+    return stage_config(config, "case")
 
 
 def get_surrogate_method():
@@ -84,15 +91,21 @@ def get_ceq_table():
 
 
 def get_environments():
-    return campaign.environment_params(config)
+    return environment_params(config)
 
 
 def get_budget():
-    return campaign.budget_params(config)
+    return budget_params(config)
 
 
-def get_optimisation_option(key):
-    return config["optimisation"][key]
+def get_optimisation_params():
+    """What the designs depend on: config optimisation without the table's path (an input)."""
+    return optimisation_params(config)
+
+
+def get_map_uncertainty_params():
+    """The bootstrap draws and seed of the maps' uncertainty panels."""
+    return map_uncertainty_params(config)
 
 
 def get_final_targets():
@@ -106,10 +119,16 @@ def get_final_targets():
         "results/figures/ceq_freq_fill.png",
         "results/figures/ceq_freq_accel.png",
         "results/figures/convergence.png",
+        "results/figures/optimum_spread.png",
     ]
     if config["optimisation"]["external_ceq_table"] is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets
     return targets
+
+
+def get_dem_check_records():
+    """The compiled DEM's record of every case of the campaign (`snakemake validate`)."""
+    return [f"results/validation/dem/{case_id}.json" for case_id in get_case_ids()]
 
 
 def get_validation_cases():
@@ -119,7 +138,7 @@ def get_validation_cases():
 
 def get_validation_packings():
     """The replicate-0 packing of every fill in validation.cases."""
-    fills = sorted({campaign.CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
+    fills = sorted({CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
                     for c in config["validation"]["cases"]})
     return [f"results/packings/{packing_id}.json" for packing_id in fills]
 
@@ -150,8 +169,9 @@ def get_fidelity_case_config(wildcards):
 
 def get_fidelity_priority(wildcards):
     """Planned time steps of a run, in millions: the costliest runs start first."""
-    case = campaign.CaseSpec.from_id(get_case_id(wildcards))
-    return fidelity_study.planned_steps(FIDELITY_STUDY.case_configs[wildcards.variant], case) / 1e6
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    settings = ShakeSettings.from_config(FIDELITY_STUDY.case_configs[wildcards.variant])
+    return fidelity_study.planned_steps(settings, case) / 1e6
 
 
 def get_fidelity_variants():
@@ -164,7 +184,7 @@ def get_fidelity_variants():
 
 def get_scene_config():
     """The config values the scene study depends on: a packing's and a case's, and scene."""
-    packing = campaign.stage_config(config, "packing")
-    case = campaign.stage_config(config, "case")
+    packing = stage_config(config, "packing")
+    case = stage_config(config, "case")
     return {**packing, **case, "fidelity": {**packing["fidelity"], **case["fidelity"]},
             "scene": config["scene"]}

@@ -1,4 +1,5 @@
-# Stage 6: figures of the surrogate and of the optimisation (PNG for the report, and PDF).
+# Stage 6: figures of the surrogate (with its bootstrap spread) and of the optimisation (PNG for
+# the report, and PDF).
 
 
 rule plot_surrogate:
@@ -17,6 +18,8 @@ rule plot_surrogate:
             category="2. Surrogate",
         ),
         freq_accel_pdf="results/figures/ceq_freq_accel.pdf",
+    params:
+        uncertainty=get_map_uncertainty_params(),
     log:
         "logs/plot_surrogate.log",
     script:
@@ -39,7 +42,25 @@ rule plot_convergence:
         "../scripts/plot_convergence.py"
 
 
+rule plot_optimum_spread:
+    input:
+        results="results/optimum.json",
+        bootstrap="results/optimum_bootstrap.csv",
+    output:
+        png=report(
+            "results/figures/optimum_spread.png",
+            caption="../report/optimum_spread.rst",
+            category="3. Optimisation",
+        ),
+        pdf="results/figures/optimum_spread.pdf",
+    log:
+        "logs/plot_optimum_spread.log",
+    script:
+        "../scripts/plot_optimum_spread.py"
+
+
 rule figures:
     input:
         rules.plot_surrogate.output,
         rules.plot_convergence.output,
+        rules.plot_optimum_spread.output,

@@ -1,4 +1,5 @@
-# Stage 5: multi-start SLSQP of fill and filled cells per operating environment.
+# Stage 5: multi-start SLSQP of fill and filled cells per operating environment: the peak,
+# band_mean and worst_case designs, and their parametric bootstrap.
 
 
 rule optimise_environments:
@@ -12,11 +13,11 @@ rule optimise_environments:
         ),
         history="results/optimum_history.csv",
         json="results/optimum.json",
+        bootstrap="results/optimum_bootstrap.csv",
     params:
         environments=get_environments(),
         budget=get_budget(),
-        starts=get_optimisation_option("starts"),
-        seed=get_optimisation_option("seed"),
+        optimisation=get_optimisation_params(),
     log:
         "logs/optimise_environments.log",
     benchmark:

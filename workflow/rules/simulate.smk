@@ -1,4 +1,5 @@
-# Stage 2: shake one case (frequency x acceleration x fill x replicate) in LIGGGHTS.
+# Stage 2: shake one case (frequency x acceleration x fill x replicate) with the configured
+# engine: LIGGGHTS (the default) or the compiled in-repo DEM (engine: dem), on the same pour.
 
 
 rule simulate_case:

@@ -1,6 +1,7 @@
-"""Rule check_packings: refuse every packing that does not fit (pidpipe.campaign.check_packings)."""
+"""Rule check_packings: refuse every packing that does not fit (pidpipe.steps.packings.check_packings)."""
 
-from pidpipe.campaign import check_packings, run_step
+from pidpipe.steps.packings import check_packings
+from pidpipe.steps.run import run_step
 
 run_step(
     check_packings,

@@ -1,7 +1,7 @@
-"""Rule collect_fidelity_table: the study's table and summary (pidpipe.fidelity_study.collect_fidelity_study)."""
+"""Rule collect_fidelity_table: the study's table and summary (pidpipe.studies.fidelity.collect_fidelity_study)."""
 
-from pidpipe.campaign import run_step
-from pidpipe.fidelity_study import collect_fidelity_study
+from pidpipe.steps.run import run_step
+from pidpipe.studies.fidelity import collect_fidelity_study
 
 run_step(
     collect_fidelity_study,

@@ -1,6 +1,7 @@
-"""Rule collect_table: the C_eq table from the case records (pidpipe.campaign.collect_table)."""
+"""Rule collect_table: the C_eq table from the case records (pidpipe.steps.table.collect_table)."""
 
-from pidpipe.campaign import collect_table, run_step
+from pidpipe.steps.run import run_step
+from pidpipe.steps.table import collect_table
 
 run_step(
     collect_table,

@@ -1,6 +1,7 @@
-"""Rule cross_validate_surrogate: leave-one-out errors (pidpipe.campaign.cross_validate_table)."""
+"""Rule cross_validate_surrogate: leave-one-out errors (pidpipe.steps.design.cross_validate_table)."""
 
-from pidpipe.campaign import cross_validate_table, run_step
+from pidpipe.steps.design import cross_validate_table
+from pidpipe.steps.run import run_step
 
 run_step(
     cross_validate_table,

@@ -1,6 +1,7 @@
-"""Rule fit_surrogate: fit and save the surrogate (pidpipe.campaign.fit_table_surrogate)."""
+"""Rule fit_surrogate: fit and save the surrogate (pidpipe.steps.design.fit_table_surrogate)."""
 
-from pidpipe.campaign import fit_table_surrogate, run_step
+from pidpipe.steps.design import fit_table_surrogate
+from pidpipe.steps.run import run_step
 
 run_step(
     fit_table_surrogate,

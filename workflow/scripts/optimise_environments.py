@@ -1,6 +1,7 @@
-"""Rule optimise_environments: SLSQP per environment (pidpipe.campaign.optimise_surrogate)."""
+"""Rule optimise_environments: every design of every environment, bootstrapped (pidpipe.steps.design.optimise_surrogate)."""
 
-from pidpipe.campaign import optimise_surrogate, run_step
+from pidpipe.steps.design import optimise_surrogate
+from pidpipe.steps.run import run_step
 
 run_step(
     optimise_surrogate,
@@ -8,9 +9,9 @@ run_step(
     surrogate_path=snakemake.input.surrogate,
     environments=snakemake.params.environments,
     budget=snakemake.params.budget,
-    starts=snakemake.params.starts,
-    seed=snakemake.params.seed,
+    optimisation=snakemake.params.optimisation,
     results_csv=snakemake.output.results,
     history_csv=snakemake.output.history,
     results_json=snakemake.output.json,
+    bootstrap_csv=snakemake.output.bootstrap,
 )

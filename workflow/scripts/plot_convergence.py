@@ -1,6 +1,7 @@
-"""Rule plot_convergence: SLSQP convergence (pidpipe.campaign.plot_optimisation_convergence)."""
+"""Rule plot_convergence: SLSQP convergence (pidpipe.steps.figures.plot_optimisation_convergence)."""
 
-from pidpipe.campaign import plot_optimisation_convergence, run_step
+from pidpipe.steps.figures import plot_optimisation_convergence
+from pidpipe.steps.run import run_step
 
 run_step(
     plot_optimisation_convergence,

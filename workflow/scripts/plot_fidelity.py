@@ -1,7 +1,7 @@
-"""Rule plot_fidelity: error in C_eq against CPU time (pidpipe.fidelity_study.plot_fidelity_study)."""
+"""Rule plot_fidelity: error in C_eq against CPU time (pidpipe.studies.fidelity.plot_fidelity_study)."""
 
-from pidpipe.campaign import run_step
-from pidpipe.fidelity_study import plot_fidelity_study
+from pidpipe.steps.run import run_step
+from pidpipe.studies.fidelity import plot_fidelity_study
 
 run_step(
     plot_fidelity_study,

@@ -1,6 +1,7 @@
-"""Rule plot_surrogate: C_eq maps of the surrogate (pidpipe.campaign.plot_surrogate_maps)."""
+"""Rule plot_surrogate: C_eq maps of the surrogate (pidpipe.steps.figures.plot_surrogate_maps)."""
 
-from pidpipe.campaign import plot_surrogate_maps, run_step
+from pidpipe.steps.figures import plot_surrogate_maps
+from pidpipe.steps.run import run_step
 
 run_step(
     plot_surrogate_maps,
@@ -8,4 +9,6 @@ run_step(
     surrogate_path=snakemake.input.surrogate,
     freq_fill_png=snakemake.output.freq_fill,
     freq_accel_png=snakemake.output.freq_accel,
+    draws=snakemake.params.uncertainty["draws"],
+    seed=snakemake.params.uncertainty["seed"],
 )

@@ -1,6 +1,7 @@
-"""Rule pour_packing: pour and settle one packing (pidpipe.campaign.pour_packing)."""
+"""Rule pour_packing: pour and settle one packing (pidpipe.steps.packings.pour_packing)."""
 
-from pidpipe.campaign import pour_packing, run_step
+from pidpipe.steps.packings import pour_packing
+from pidpipe.steps.run import run_step
 
 run_step(
     pour_packing,

@@ -1,7 +1,7 @@
-"""Rule run_scene_study: every scene of config scene (pidpipe.scene_study.write_scene_study)."""
+"""Rule run_scene_study: every scene of config scene (pidpipe.studies.scene.write_scene_study)."""
 
-from pidpipe.campaign import run_step
-from pidpipe.scene_study import write_scene_study
+from pidpipe.steps.run import run_step
+from pidpipe.studies.scene import write_scene_study
 
 run_step(
     write_scene_study,

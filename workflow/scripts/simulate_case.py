@@ -1,6 +1,7 @@
-"""Rule simulate_case: shake one case in LIGGGHTS (pidpipe.campaign.simulate_case)."""
+"""Rule simulate_case: shake one case with the configured engine (pidpipe.steps.cases.simulate_case)."""
 
-from pidpipe.campaign import run_step, simulate_case
+from pidpipe.steps.cases import simulate_case
+from pidpipe.steps.run import run_step
 
 run_step(
     simulate_case,

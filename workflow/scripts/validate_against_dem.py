@@ -1,6 +1,7 @@
-"""Rule validate: LIGGGHTS against the NumPy DEM (pidpipe.campaign.validate_against_dem)."""
+"""Rule validate: LIGGGHTS against the NumPy DEM (pidpipe.steps.validate.validate_against_dem)."""
 
-from pidpipe.campaign import run_step, validate_against_dem
+from pidpipe.steps.run import run_step
+from pidpipe.steps.validate import validate_against_dem
 
 run_step(
     validate_against_dem,

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pidpipe.cell.geometry import HexCell
 from pidpipe.dem import Material, advance, make_scene, start
-from pidpipe.geometry import HexCell
 
 
 def column(n: int, radius: float, floor_z: float, gap: float = 2.3e-3) -> np.ndarray:

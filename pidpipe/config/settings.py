@@ -1,0 +1,306 @@
+"""Typed, frozen settings parsed once from a validated config (or from a stage's part of one).
+
+:func:`pidpipe.config.validate_config` checks the YAML against the schema and fills its
+defaults; the functions here turn the resulting dict into dataclasses that the stages take
+instead of the dict. Each section parses on its own (``Fidelity.from_config(config)`` needs only
+the keys it reads), so a rule that receives only its stage's part of the config
+(:func:`pidpipe.config.stages.stage_config`) parses the part it was given, and a key the stage
+reads that the part does not list is a ``KeyError`` at once, not a silent default.
+
+The ``fidelity`` section of ``config.yaml`` holds three kinds of setting, split here by the
+stage that uses them: :class:`Fidelity` (how the contact is resolved: timestep, stiffness,
+rotation, friction; part of every scene), :class:`Sampling` (how long and on how many cells a
+case is measured) and :class:`Pouring` (how packings are poured).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from pidpipe.config.derived import (
+    budget_spheres,
+    full_cell_spheres,
+    pair_properties,
+    panel_n_cells,
+    spheres_at_fill,
+)
+from pidpipe.errors import ConfigError
+from pidpipe.physics.materials import Material, PairProperties
+
+
+def _material(config: dict, name: str) -> Material:
+    props = config["materials"][name]
+    return Material(youngs_modulus_pa=float(props["youngs_modulus_pa"]),
+                    poisson_ratio=float(props["poisson_ratio"]),
+                    density_kg_m3=float(props.get("density_kg_m3", 0.0)),
+                    radius_m=float(props.get("radius_m", 0.0)), name=name)
+
+
+def _pair(config: dict, a: str, b: str) -> PairProperties:
+    props = pair_properties(config, a, b)
+    return PairProperties(friction=props["friction"], restitution=props["restitution"])
+
+
+@dataclass(frozen=True)
+class Materials:
+    """The particle and wall materials and the contact properties of their pairs.
+
+    Attributes
+    ----------
+    particle, wall : Material
+        What the spheres are made of (with their radius) and what the walls behave as.
+    particle_particle, particle_wall : PairProperties
+        Friction and restitution of sphere-sphere and sphere-wall contacts.
+    wall_wall : PairProperties
+        Never in contact, but LIGGGHTS needs a value: the configured pair if present, else the
+        particle-wall one.
+    """
+
+    particle: Material
+    wall: Material
+    particle_particle: PairProperties
+    particle_wall: PairProperties
+    wall_wall: PairProperties
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Materials":
+        particle, wall = config["particle_material"], config["wall_material"]
+        particle_wall = _pair(config, particle, wall)
+        try:
+            wall_wall = _pair(config, wall, wall)
+        except ConfigError:
+            wall_wall = particle_wall
+        return cls(particle=_material(config, particle), wall=_material(config, wall),
+                   particle_particle=_pair(config, particle, particle),
+                   particle_wall=particle_wall, wall_wall=wall_wall)
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The honeycomb cell (``geometry``), m.
+
+    Attributes
+    ----------
+    cell_inscribed_diameter_m, core_height_m : float
+        Inscribed-circle diameter of the hexagonal cell and the distance between the face
+        sheets, m.
+    """
+
+    cell_inscribed_diameter_m: float
+    core_height_m: float
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Geometry":
+        geo = config["geometry"]
+        return cls(float(geo["cell_inscribed_diameter_m"]), float(geo["core_height_m"]))
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """How a contact is resolved: the settings that enter every scene, pour or shake.
+
+    Attributes
+    ----------
+    timestep_rayleigh_fraction : float
+        dt / Rayleigh time of the (softened) particles, before rounding down to whole steps per
+        cycle.
+    youngs_modulus_scale : float
+        Factor on every Young's modulus (1 = real stiffness).
+    rotation, friction : bool
+        Integrate the spheres' rotation; tangential (Coulomb) contact on.
+    """
+
+    timestep_rayleigh_fraction: float
+    youngs_modulus_scale: float
+    rotation: bool
+    friction: bool
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Fidelity":
+        fid = config["fidelity"]
+        return cls(float(fid["timestep_rayleigh_fraction"]), float(fid["youngs_modulus_scale"]),
+                   bool(fid["rotation"]), bool(fid["friction"]))
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How long, and on how many cells, a case is measured.
+
+    Attributes
+    ----------
+    transient_cycles : int
+        Cycles run and discarded before measuring (a floor: a longer detected transient is
+        discarded too).
+    transient_min_time_s : float
+        The transient lasts at least this long, s.
+    measured_cycles : int
+        Cycles whose dissipation is averaged (first stage).
+    sem_block_cycles : int
+        Cycles per block of the block-means standard error.
+    target_relative_sem : float or None
+        Rerun with more cycles until SEM / C_eq is at most this; None: one stage.
+    max_measured_cycles : int
+        Cap on the measured cycles of the adaptive stages.
+    cells_per_run : int
+        Cells side by side in one run, each with its own packing.
+    """
+
+    transient_cycles: int
+    transient_min_time_s: float
+    measured_cycles: int
+    sem_block_cycles: int
+    target_relative_sem: float | None
+    max_measured_cycles: int
+    cells_per_run: int
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Sampling":
+        fid = config["fidelity"]
+        target = fid["target_relative_sem"]
+        return cls(int(fid["transient_cycles"]), float(fid["transient_min_time_s"]),
+                   int(fid["measured_cycles"]), int(fid["sem_block_cycles"]),
+                   None if target is None else float(target), int(fid["max_measured_cycles"]),
+                   int(fid["cells_per_run"]))
+
+    def transient_cycles_at(self, freq_hz: float) -> int:
+        """Cycles discarded before measuring at ``freq_hz`` (Hz): the configured count, or more
+        to last at least ``transient_min_time_s``."""
+        by_time = math.ceil(self.transient_min_time_s * freq_hz - 1e-9)
+        return max(self.transient_cycles, by_time)
+
+
+@dataclass(frozen=True)
+class Pouring:
+    """How packings are poured (``fidelity.settle_time_s``, ``fidelity.seed``).
+
+    Attributes
+    ----------
+    settle_time_s : float
+        Settling time after the pour and after the tapping, s.
+    seed : int
+        Seed of replicate 0; replicate k uses seed + k.
+    """
+
+    settle_time_s: float
+    seed: int
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Pouring":
+        fid = config["fidelity"]
+        return cls(float(fid["settle_time_s"]), int(fid["seed"]))
+
+
+@dataclass(frozen=True)
+class Fill:
+    """Fill percent r -> spheres per cell (``fill``).
+
+    Attributes
+    ----------
+    full_cell_spheres : int
+        Spheres at r = 100 % under the configured definition.
+    definition : str
+        ``poured_capacity`` or ``source_36``.
+    """
+
+    full_cell_spheres: int
+    definition: str
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Fill":
+        return cls(full_cell_spheres(config), str(config["fill"]["definition"]))
+
+    def spheres(self, fill_pct: float) -> int:
+        """Spheres per cell at fill r (percent): round half up of full_cell_spheres * r / 100."""
+        return spheres_at_fill(self.full_cell_spheres, fill_pct)
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The particle budget of the optimisation, in spheres (``budget``).
+
+    Attributes
+    ----------
+    n_spheres : int
+        Spheres the mass limit allows, n_b.
+    full_cell_spheres : int
+        Spheres in a full cell (so a cell at fill r holds full_cell_spheres * r / 100).
+    n_cells_coupon : int
+        Cells of the coupon whose C_eq the surrogate gives, N.
+    n_cells_panel : int
+        Cells of the structure that may be filled (``panel.n_cells``; the coupon's N if null).
+    """
+
+    n_spheres: int
+    full_cell_spheres: int
+    n_cells_coupon: int
+    n_cells_panel: int
+
+    @classmethod
+    def from_config(cls, config: dict) -> "Budget":
+        return cls(budget_spheres(config), full_cell_spheres(config),
+                   int(config["geometry"]["coupon_n_cells"]), panel_n_cells(config))
+
+    def as_params(self) -> dict:
+        """The plain dict a rule's ``params`` carries."""
+        return {"n_spheres": self.n_spheres, "full_cell_spheres": self.full_cell_spheres,
+                "n_cells_coupon": self.n_cells_coupon, "n_cells_panel": self.n_cells_panel}
+
+
+@dataclass(frozen=True)
+class Environment:
+    """An operating environment: a band of frequency (Hz) and of acceleration (g)."""
+
+    name: str
+    freq_hz: tuple[float, float]
+    accel_g: tuple[float, float]
+
+    @classmethod
+    def list_from_config(cls, config: dict) -> list["Environment"]:
+        return [cls(str(e["name"]), (float(e["freq_hz"][0]), float(e["freq_hz"][1])),
+                    (float(e["accel_g"][0]), float(e["accel_g"][1])))
+                for e in config["environments"]]
+
+
+@dataclass(frozen=True)
+class ShakeSettings:
+    """Everything a case's shaking run reads: the scene's inputs, the sampling and the engine.
+
+    Built from the case stage's part of the config (``stage_config(config, "case")``).
+    ``engine`` is ``liggghts`` (the reference) or ``dem`` (the compiled in-repo DEM).
+    """
+
+    geometry: Geometry
+    materials: Materials
+    fidelity: Fidelity
+    sampling: Sampling
+    coupon_n_cells: int
+    engine: str = "liggghts"
+
+    @classmethod
+    def from_config(cls, config: dict) -> "ShakeSettings":
+        # the case stage's part names the engine only when it is not LIGGGHTS (stages.py)
+        return cls(Geometry.from_config(config), Materials.from_config(config),
+                   Fidelity.from_config(config), Sampling.from_config(config),
+                   int(config["geometry"]["coupon_n_cells"]),
+                   str(config.get("engine", "liggghts")))
+
+
+@dataclass(frozen=True)
+class PourSettings:
+    """Everything a pour reads: the scene's inputs, the fill and the pouring settings.
+
+    Built from the packing stage's part of the config (``stage_config(config, "packing")``).
+    """
+
+    geometry: Geometry
+    materials: Materials
+    fidelity: Fidelity
+    fill: Fill
+    pouring: Pouring
+
+    @classmethod
+    def from_config(cls, config: dict) -> "PourSettings":
+        return cls(Geometry.from_config(config), Materials.from_config(config),
+                   Fidelity.from_config(config), Fill.from_config(config),
+                   Pouring.from_config(config))

@@ -1,0 +1,470 @@
+"""The DEM time loop compiled with Numba: many steps of a batch of cells in one call.
+
+The physics is exactly that of the NumPy reference (:mod:`pidpipe.dem.contacts`,
+:mod:`pidpipe.dem.integrator`, :mod:`pidpipe.dem.energy`; their docstrings give the
+equations), written contact by contact instead of as dense arrays:
+
+- Hertz normal force with restitution damping, the tangential history spring capped by
+  Coulomb friction, tangential damping while sticking, contact torques (LIGGGHTS' ``model hertz
+  tangential history``); the eight planes of the cell moving as z_w = W (cos(omega t) - 1);
+  velocity Verlet in LIGGGHTS' order;
+- the ledgers inside the loop: the walls' work over the displacement they actually made in
+  each step (the half-step wall move), the four dissipation terms (normal damping, friction,
+  tangential damping, tangential spring) by contact type, and at every cycle boundary the
+  energies K, K_rot, P, U and the ledger total K^ + P + U.
+
+Cells are independent, so within each cycle the loop runs cell by cell and step by step; the
+wall's motion over the cycle is computed once for all cells. A sphere
+pair is evaluated once, for i < j; its history lives in the (i, j) entries of the dense state
+arrays (:mod:`pidpipe.dem.state`), and the (j, i) copies are filled at the end of each call so
+that the arrays read as the reference's. A pair neither in contact now nor at the last
+evaluation contributes exactly zero and is skipped.
+
+Nothing here is called directly: :mod:`pidpipe.dem.compiled` builds the arrays and reports a
+missing or failing Numba with the fix.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:
+    from numba import njit
+except ImportError as exc:  # pragma: no cover - exercised by hand, see compiled.py
+    raise ImportError(
+        "the compiled DEM needs numba, which is not installed in this environment: run "
+        "`pip install numba` in it, or re-run `bash install.sh`") from exc
+
+# indices into the float parameter vector (see compiled.scene_parameters)
+DT, RADIUS, MASS, INERTIA, WEIGHT, OMEGA = 0, 1, 2, 3, 4, 5
+PP, PW = 6, 12                 # start of the particle-particle and particle-wall laws
+A_N, G_N, A_T, MU, GT_OVER_GN, ENERGY_N = 0, 1, 2, 3, 4, 5   # offsets within a law
+N_PARAMS = 18
+N_WALLS = 8
+# per-sphere columns of the packed body array (x, v, omega, force, torque)
+BX, BV, BW, BF, BT, N_BODY = 0, 3, 6, 9, 12, 15
+# per-contact columns of the packed history: shear, normal damping force, -F_t, k_t |s|^2,
+# overlap, sliding (1.0 or 0.0)
+HS, HD, HT, HS2, HDELTA, HSLIDE, N_HIST = 0, 3, 4, 7, 8, 9, 10
+# rows of the boundary-energy output
+E_TRANS, E_ROT, E_POT, E_ELASTIC, E_LEDGER, E_COM, E_LOWEST, E_HIGHEST = 0, 1, 2, 3, 4, 5, 6, 7
+N_ENERGY_ROWS = 8
+
+
+@njit(cache=True, error_model="numpy")
+def _contact(dl, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, a_n, g_n, a_t, mu,
+             gt_over_gn, dt, radius, friction, rotation, update, sx, sy, sz, dprev, tpx, tpy,
+             tpz, s2prev):
+    """One contact, scalars in and out (so that it inlines into the loop without overhead).
+
+    Inputs: the overlap ``dl`` (>= 0), the unit normal (ex, ey, ez) towards sphere i, the
+    relative velocity vr = v_i - v_partner, the sum w of the angular velocities, whether the
+    partner is a wall (its normal's z component ``nz``, and lag = v_w - u_w), the law's
+    coefficients, and the contact's history: shear s, the last step's normal damping force,
+    -F_t (tp) and k_t |s|^2 (s2prev).
+
+    Returns
+    -------
+    tuple
+        Force on i (3, N), torque on i (3, N m), the raw energy terms e0..e3 (see
+        :func:`pidpipe.dem.contacts.reduce_terms`), then the new history: shear (3), damping
+        force, -F_t (3), k_t |s|^2, and whether the contact slid.
+    """
+    vn = vrx * ex + vry * ey + vrz * ez
+    vtx, vty, vtz = vrx, vry, vrz
+    cr = 0.0
+    if friction:
+        vtx = vrx - ex * vn
+        vty = vry - ey * vn
+        vtz = vrz - ez * vn
+        if rotation:
+            cr = dl * -0.5 + radius
+            ax, ay, az = wx * cr, wy * cr, wz * cr
+            vtx -= ay * ez - az * ey
+            vty -= az * ex - ax * ez
+            vtz -= ax * ey - ay * ex
+    # normal force and normal damping
+    sq = math.sqrt(dl)
+    q = math.sqrt(sq)
+    gn = q * g_n
+    damp = gn * vn
+    fn = sq * a_n * dl - damp
+    e0 = dprev + damp
+    if is_wall:
+        e0 = e0 * vn + e0 * (lag * nz)
+    else:
+        e0 = e0 * vn
+    fx, fy, fz = ex * fn, ey * fn, ez * fn
+    if not friction:
+        return (fx, fy, fz, 0.0, 0.0, 0.0, e0, 0.0, 0.0, 0.0,
+                sx, sy, sz, damp, 0.0, 0.0, 0.0, 0.0, False)
+    # tangential history, Coulomb cap, tangential damping
+    if update:
+        sx += vtx * dt
+        sy += vty * dt
+        sz += vtz * dt
+        s1 = sx * ex + sy * ey + sz * ez
+        sx -= ex * s1
+        sy -= ey * s1
+        sz -= ez * s1
+    if not dl > 0.0:                                  # an opened contact forgets its history
+        sx, sy, sz = 0.0, 0.0, 0.0
+    kt = sq * a_t
+    s2 = sx * sx + sy * sy + sz * sz
+    spring = math.sqrt(s2) * kt
+    cap = abs(fn) * mu
+    sliding = spring > cap
+    if sliding:                                       # the Coulomb cap; 1 when sticking
+        ratio = min(cap / (spring + 1e-300), 1.0)
+        sx *= ratio
+        sy *= ratio
+        sz *= ratio
+        s2 = s2 * ratio * ratio
+    stored2 = s2 * kt
+    gamma_t = 0.0 if sliding else gn * gt_over_gn
+    t3x = sx * kt + vtx * gamma_t                     # -F_t
+    t3y = sy * kt + vty * gamma_t
+    t3z = sz * kt + vtz * gamma_t
+    bx, by, bz = tpx + t3x, tpy + t3y, tpz + t3z
+    e1 = bx * vtx + by * vty + bz * vtz
+    e3 = (vtx * vtx + vty * vty + vtz * vtz) * gamma_t
+    if is_wall:
+        e1 += bz * lag
+        e3 += (vtz * gamma_t) * lag
+    e1 = e1 * dt - stored2 + s2prev
+    e2 = e1 if sliding else 0.0
+    tqx = tqy = tqz = 0.0
+    if rotation:
+        tqx = (ey * t3z - ez * t3y) * cr
+        tqy = (ez * t3x - ex * t3z) * cr
+        tqz = (ex * t3y - ey * t3x) * cr
+    return (fx - t3x, fy - t3y, fz - t3z, tqx, tqy, tqz, e0, e1, e2, e3,
+            sx, sy, sz, damp, t3x, t3y, t3z, stored2, sliding)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, update):
+    """All forces and torques of one cell (gravity included), written into ``body``.
+
+    ``body`` (n, N_BODY) and ``hist`` (n, n + 8, N_HIST) are the cell's packed arrays. Returns
+    the walls' total z force on the spheres (N) and the step's raw energy terms e0..e3 of the
+    sphere pairs and then of the wall contacts.
+    """
+    n = body.shape[0]
+    radius = p[RADIUS]
+    dt = p[DT]
+    reach2 = 4.0 * radius * radius * (1.0 + 1e-9)
+    torques = friction and rotation
+    for i in range(n):
+        for c in range(3):
+            body[i, BF + c] = 0.0
+        if torques:
+            for c in range(3):
+                body[i, BT + c] = 0.0
+    p0 = p1 = p2 = p3 = 0.0
+    for i in range(n):
+        xi, yi, zi = body[i, BX], body[i, BX + 1], body[i, BX + 2]
+        for j in range(i + 1, n):
+            dx = xi - body[j, BX]
+            dy = yi - body[j, BX + 1]
+            dz = zi - body[j, BX + 2]
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 > reach2 and not hist[i, j, HDELTA] > 0.0:
+                continue
+            r = math.sqrt(r2)
+            dl = max(2.0 * radius - r, 0.0)
+            hist[i, j, HDELTA] = dl
+            inv_r = 1.0 / r
+            h = _contact(dl, dx * inv_r, dy * inv_r, dz * inv_r,
+                         body[i, BV] - body[j, BV], body[i, BV + 1] - body[j, BV + 1],
+                         body[i, BV + 2] - body[j, BV + 2], body[i, BW] + body[j, BW],
+                         body[i, BW + 1] + body[j, BW + 1], body[i, BW + 2] + body[j, BW + 2],
+                         False, 0.0, 0.0, p[PP + A_N], p[PP + G_N], p[PP + A_T], p[PP + MU],
+                         p[PP + GT_OVER_GN], dt, radius, friction, rotation, update,
+                         hist[i, j, HS], hist[i, j, HS + 1], hist[i, j, HS + 2],
+                         hist[i, j, HD], hist[i, j, HT], hist[i, j, HT + 1], hist[i, j, HT + 2],
+                         hist[i, j, HS2])
+            _keep(hist, i, j, h)
+            body[i, BF] += h[0]
+            body[i, BF + 1] += h[1]
+            body[i, BF + 2] += h[2]
+            body[j, BF] -= h[0]
+            body[j, BF + 1] -= h[1]
+            body[j, BF + 2] -= h[2]
+            if torques:
+                body[i, BT] += h[3]
+                body[i, BT + 1] += h[4]
+                body[i, BT + 2] += h[5]
+                body[j, BT] += h[3]
+                body[j, BT + 1] += h[4]
+                body[j, BT + 2] += h[5]
+            p0 += h[6]
+            p1 += h[7]
+            p2 += h[8]
+            p3 += h[9]
+    wall_fz = w0 = w1 = w2 = w3 = 0.0
+    for i in range(n):
+        xi, yi, zi = body[i, BX], body[i, BX + 1], body[i, BX + 2]
+        for k in range(N_WALLS):
+            col = n + k
+            nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
+            dist = nx * xi + ny * yi + nz * zi
+            dl = (zw * nz + (radius - offsets[k])) - dist
+            if not dl > 0.0 and not hist[i, col, HDELTA] > 0.0:
+                continue
+            dl = max(dl, 0.0)
+            hist[i, col, HDELTA] = dl
+            h = _contact(dl, nx, ny, nz, body[i, BV], body[i, BV + 1], body[i, BV + 2] - vw,
+                         body[i, BW], body[i, BW + 1], body[i, BW + 2], True, nz, lag,
+                         p[PW + A_N], p[PW + G_N], p[PW + A_T], p[PW + MU],
+                         p[PW + GT_OVER_GN], dt, radius, friction, rotation, update,
+                         hist[i, col, HS], hist[i, col, HS + 1], hist[i, col, HS + 2],
+                         hist[i, col, HD], hist[i, col, HT], hist[i, col, HT + 1],
+                         hist[i, col, HT + 2], hist[i, col, HS2])
+            _keep(hist, i, col, h)
+            body[i, BF] += h[0]
+            body[i, BF + 1] += h[1]
+            body[i, BF + 2] += h[2]
+            if torques:
+                body[i, BT] += h[3]
+                body[i, BT + 1] += h[4]
+                body[i, BT + 2] += h[5]
+            wall_fz += h[2]
+            w0 += h[6]
+            w1 += h[7]
+            w2 += h[8]
+            w3 += h[9]
+    for i in range(n):
+        body[i, BF + 2] -= p[WEIGHT]
+    return wall_fz, p0, p1, p2, p3, w0, w1, w2, w3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _keep(hist, i, col, h):
+    """Store a contact's new history, the tail of :func:`_contact`'s tuple."""
+    hist[i, col, HS] = h[10]
+    hist[i, col, HS + 1] = h[11]
+    hist[i, col, HS + 2] = h[12]
+    hist[i, col, HT] = h[14]
+    hist[i, col, HT + 1] = h[15]
+    hist[i, col, HT + 2] = h[16]
+    hist[i, col, HD] = h[13]
+    hist[i, col, HS2] = h[17]
+    hist[i, col, HSLIDE] = 1.0 if h[18] else 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def _pack(x, v, w, f, t, body):
+    """Copy the state's component-first arrays (3, nb, n) into ``body`` (nb, n, N_BODY)."""
+    for b in range(x.shape[1]):
+        for i in range(x.shape[2]):
+            for c in range(3):
+                body[b, i, BX + c] = x[c, b, i]
+                body[b, i, BV + c] = v[c, b, i]
+                body[b, i, BW + c] = w[c, b, i]
+                body[b, i, BF + c] = f[c, b, i]
+                body[b, i, BT + c] = t[c, b, i]
+
+
+@njit(cache=True, error_model="numpy")
+def _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide):
+    """Copy ``body`` back into the state and export the history as the reference's dense
+    arrays: both (i, j) and (j, i) entries of a pair (the shear of (j, i) is minus that of
+    (i, j)), the wall columns as they are."""
+    nb, n = body.shape[0], body.shape[1]
+    for b in range(nb):
+        for i in range(n):
+            for c in range(3):
+                x[c, b, i] = body[b, i, BX + c]
+                v[c, b, i] = body[b, i, BV + c]
+                w[c, b, i] = body[b, i, BW + c]
+                f[c, b, i] = body[b, i, BF + c]
+                t[c, b, i] = body[b, i, BT + c]
+            for col in range(i + 1, n + N_WALLS):
+                for c in range(3):
+                    shear[c, b, i, col] = hist[b, i, col, HS + c]
+                tenergy[b, i, col] = 0.5 * hist[b, i, col, HS2]
+                delta[b, i, col] = hist[b, i, col, HDELTA]
+                slide[b, i, col] = hist[b, i, col, HSLIDE] != 0.0
+                if col < n:
+                    for c in range(3):
+                        shear[c, b, col, i] = -hist[b, i, col, HS + c]
+                    tenergy[b, col, i] = tenergy[b, i, col]
+                    delta[b, col, i] = delta[b, i, col]
+                    slide[b, col, i] = slide[b, i, col]
+
+
+@njit(cache=True, error_model="numpy")
+def set_up(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
+           offsets, amplitude, step0):
+    """The forces of the initial state of every cell (no history update), as LIGGGHTS' set-up.
+
+    Arrays as for :func:`run`; ``wall_fz`` (nb,) receives the walls' z force. The energy terms
+    of this evaluation are not counted.
+    """
+    _pack(x, v, w, f, t, body)
+    omega = p[OMEGA]
+    phase = omega * (step0 * p[DT])
+    for b in range(x.shape[1]):
+        zw = amplitude[b] * (math.cos(phase) - 1.0)
+        vw = amplitude[b] * (-omega * math.sin(phase))
+        out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
+                      vw, 0.0, False)
+        wall_fz[b] = out[0]
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
+def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
+        offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work, acc_gross,
+        reference, out_work, out_gross, out_terms, out_energy):
+    """Advance every cell by ``n_cycles * steps_per_cycle`` steps from step ``step0``.
+
+    Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
+    ----------
+    x, v, w, f, t : (3, nb, n) positions m, velocities m/s, angular velocities rad/s, forces N,
+        torques N m; read at the start, written at the end
+    shear : (3, nb, n, m); tenergy, delta : (nb, n, m); slide : (nb, n, m) bool
+        Written at the end from the history (tangential history m, its spring energy J, the
+        overlaps m, sliding at the last step)
+    body : (nb, n, N_BODY), hist : (nb, n, m, N_HIST)
+        The kernel's packed state and contact history (hist is kept between calls and only
+        its i < j entries and wall columns are used)
+    wall_fz : (nb,) walls' z force at the last step, N
+    p, flags : the scene's parameters and (friction, rotation) switches
+    normals, offsets : (8, 3), (8,) the cell's planes at rest
+    amplitude : (nb,) wall amplitude W, m
+    reset : bool, zero the accumulators at the start of every cycle
+    acc : (4, 2, nb) raw energy terms by contact type; acc_work, acc_gross : (nb,) wall work
+        and its absolute sum, J (accumulated)
+    reference : (nb,) zero of the potential energy (a height, m)
+    out_work, out_gross : (nb, n_cycles); out_terms : (4, 2, nb, n_cycles), J, per cycle
+    out_energy : (8, nb, n_cycles + 1) energies and heights at the cycle boundaries (rows E_*)
+    """
+    _pack(x, v, w, f, t, body)
+    n = x.shape[2]
+    dt = p[DT]
+    omega = p[OMEGA]
+    half_over_m = 0.5 * dt / p[MASS]
+    half_over_i = 0.5 * dt / p[INERTIA]
+    friction, rotation = flags[0] != 0, flags[1] != 0
+    n_batch = x.shape[1]
+    # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
+    z_unit = np.empty(steps_per_cycle)
+    v_unit = np.empty(steps_per_cycle)
+    u_unit = np.empty(steps_per_cycle)
+    half_phase = 0.5 * omega * dt
+    for b in range(n_batch):
+        _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, 0])
+    for cycle in range(n_cycles):
+        first = step0 + cycle * steps_per_cycle
+        for s in range(steps_per_cycle):
+            step = first + s + 1
+            phase = omega * (step * dt)
+            z_unit[s] = math.cos(phase) - 1.0
+            v_unit[s] = -omega * math.sin(phase)
+            u_unit[s] = -2.0 * math.sin(omega * (step - 0.5) * dt) * math.sin(half_phase) / dt
+        for b in range(n_batch):
+            cell, history = body[b], hist[b]
+            amp = amplitude[b]
+            if reset:
+                for k in range(4):
+                    acc[k, 0, b] = 0.0
+                    acc[k, 1, b] = 0.0
+                acc_work[b] = 0.0
+                acc_gross[b] = 0.0
+            fz_prev = wall_fz[b]
+            work_sum = acc_work[b]
+            gross_sum = acc_gross[b]
+            for s in range(steps_per_cycle):
+                for i in range(n):
+                    for c in range(3):
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
+                    for c in range(3):
+                        cell[i, BX + c] += cell[i, BV + c] * dt
+                    if rotation:
+                        for c in range(3):
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                zw = amp * z_unit[s]
+                vw = amp * v_unit[s]
+                uw = amp * u_unit[s]
+                out = _forces(cell, history, p, friction, rotation, normals, offsets, zw, vw,
+                              vw - uw, True)
+                fz = out[0]
+                work = (fz_prev + fz) * (uw * (0.5 * dt))
+                fz_prev = fz
+                work_sum += work
+                gross_sum += abs(work)
+                acc[0, 0, b] += out[1]
+                acc[1, 0, b] += out[2]
+                acc[2, 0, b] += out[3]
+                acc[3, 0, b] += out[4]
+                acc[0, 1, b] += out[5]
+                acc[1, 1, b] += out[6]
+                acc[2, 1, b] += out[7]
+                acc[3, 1, b] += out[8]
+                for i in range(n):
+                    for c in range(3):
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
+                    if rotation:
+                        for c in range(3):
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+            wall_fz[b] = fz_prev
+            acc_work[b] = work_sum
+            acc_gross[b] = gross_sum
+            out_work[b, cycle] = work_sum
+            out_gross[b, cycle] = gross_sum
+            for kind in range(2):
+                s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
+                damping = dt * s3
+                out_terms[0, kind, b, cycle] = 0.5 * dt * s0
+                out_terms[1, kind, b, cycle] = 0.5 * s2
+                out_terms[2, kind, b, cycle] = damping
+                out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
+            _ledger(cell, history, p, rotation, reference[b], out_energy[:, b, cycle + 1])
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
+def _ledger(body, hist, p, rotation, reference, out):
+    """Energies of one cell at a cycle boundary into ``out`` (rows E_*), J, and its
+    centre-of-mass height and lowest and highest sphere centre, m."""
+    n = body.shape[0]
+    dt = p[DT]
+    trans = rot = heights = force2 = torque2 = 0.0
+    lowest, highest = body[0, BX + 2], body[0, BX + 2]
+    for i in range(n):
+        z = body[i, BX + 2]
+        lowest = min(lowest, z)
+        highest = max(highest, z)
+        for c in range(3):
+            trans += body[i, BV + c] * body[i, BV + c]
+            rot += body[i, BW + c] * body[i, BW + c]
+            force2 += body[i, BF + c] * body[i, BF + c]
+            torque2 += body[i, BT + c] * body[i, BT + c]
+        heights += z
+    trans *= 0.5 * p[MASS]
+    rot *= 0.5 * p[INERTIA]
+    potential = p[WEIGHT] * (heights - n * reference)
+    elastic = 0.0
+    for i in range(n):
+        for col in range(i + 1, n + N_WALLS):
+            dl = hist[i, col, HDELTA]
+            if not dl > 0.0:
+                continue
+            law = PP if col < n else PW
+            s2 = hist[i, col, HS] ** 2 + hist[i, col, HS + 1] ** 2 + hist[i, col, HS + 2] ** 2
+            elastic += p[law + ENERGY_N] * dl ** 2.5 + 0.5 * p[law + A_T] * math.sqrt(dl) * s2
+    shift = -dt * dt / (8.0 * p[MASS]) * force2
+    if rotation:
+        shift -= dt * dt / (8.0 * p[INERTIA]) * torque2
+    out[E_TRANS] = trans
+    out[E_ROT] = rot
+    out[E_POT] = potential
+    out[E_ELASTIC] = elastic
+    out[E_LEDGER] = trans + rot + shift + potential + elastic
+    out[E_COM] = heights / n
+    out[E_LOWEST] = lowest
+    out[E_HIGHEST] = highest

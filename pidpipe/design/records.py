@@ -1,0 +1,195 @@
+"""From case records to the C_eq table: one row per grid point, replicates combined, status and flags kept.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+import pandas as pd
+
+from pidpipe.cases import CaseSpec, regime
+from pidpipe.design.ceq_table import COORDINATE_COLUMNS, signal_quality
+from pidpipe.errors import ParseError
+
+#: Statuses a table row can have, from the most to the least usable.
+_STATUS_ORDER = ("ok", "flagged", "failed", "missing")
+
+#: (table column, where it is in a record): values averaged over replicates with their SEM.
+_MEAN_WITH_SEM = (
+    ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m"),
+    ("ceq_cell_ns_m", "ceq_cell_sem_ns_m"),
+    ("ed_cycle_mean_j", "ed_cycle_sem_j"),
+)
+
+#: table column -> key path in a record, for settings that are the same for every replicate.
+_SETTING_COLUMNS = {
+    "n_spheres": ("n_spheres",),
+    "dt_s": ("fidelity", "timestep_s"),
+    "dt_rayleigh_fraction": ("fidelity", "rayleigh_fraction"),
+    "steps_per_cycle": ("fidelity", "steps_per_cycle"),
+    "youngs_modulus_scale": ("fidelity", "youngs_modulus_scale"),
+    "transient_cycles": ("fidelity", "transient_cycles"),
+    "measured_cycles": ("fidelity", "measured_cycles"),
+    "sem_block_cycles": ("fidelity", "sem_block_cycles"),
+    "rotation": ("fidelity", "rotation"),
+    "friction": ("fidelity", "friction"),
+    "seed": ("fidelity", "seed"),
+    "cells_per_run": ("fidelity", "cells_per_run"),
+    "solver": ("solver",),
+    "solver_version": ("engine", "version"),
+    "liggghts_version": ("engine", "liggghts_version"),
+}
+
+#: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.design.ceq_table`).
+TABLE_COLUMNS: tuple[str, ...] = (
+    "case_id", "freq_hz", "accel_g", "fill_pct", "status", "flags", "regime", "signal",
+    "n_replicates", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_relative_sem",
+    "ceq_cell_ns_m", "ceq_cell_sem_ns_m",
+    "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
+    "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
+    "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
+    "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
+    "solver_wall_time_s", "liggghts_wall_time_s", "message",
+)
+
+
+def _get(record: dict, keys: tuple[str, ...], default=None):
+    value = record
+    for key in keys:
+        if not isinstance(value, dict) or key not in value:
+            return default
+        value = value[key]
+    return value
+
+
+def combine_replicates(values, sems) -> tuple[float, float]:
+    """Mean of replicate estimates and its standard error.
+
+    With k estimates x_i of standard errors s_i (each from one run's cycle-to-cycle scatter),
+    the mean's error propagated from the runs is sqrt(sum s_i^2) / k. It misses the scatter
+    between packings, which the spread of the x_i measures, std(x, ddof=1) / sqrt(k), but
+    that estimate is itself poor for few replicates. The larger of the two is returned.
+
+    Parameters
+    ----------
+    values, sems : array_like, shape (k,)
+
+    Returns
+    -------
+    (float, float)
+        mean and standard error; (nan, nan) for k = 0; (x_1, s_1) for k = 1.
+    """
+    values, sems = np.asarray(values, dtype=float), np.asarray(sems, dtype=float)
+    k = values.size
+    if k == 0:
+        return math.nan, math.nan
+    mean = float(values.mean())
+    propagated = float(np.sqrt(np.sum(sems**2)) / k)
+    if k == 1:
+        return mean, propagated
+    between = float(values.std(ddof=1) / math.sqrt(k))
+    return mean, max(propagated, between)
+
+
+def missing_record(case: CaseSpec) -> dict:
+    """Stand-in for a case that has no record."""
+    return {"case_id": case.case_id, "freq_hz": case.freq_hz, "accel_g": case.accel_g,
+            "fill_pct": case.fill_pct, "replicate": case.replicate, "status": "missing",
+            "flags": [], "message": "no record"}
+
+
+def records_to_table(records: Iterable[dict], expected: Iterable[CaseSpec] | None = None) -> pd.DataFrame:
+    """The C_eq table: one row per grid point (f, G, r), replicates averaged.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Case records (:func:`pidpipe.liggghts.shake.run_case`, :func:`failed_record`).
+    expected : iterable of CaseSpec, optional
+        The campaign's cases; one without a record gives a ``missing`` replicate.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`TABLE_COLUMNS`, rows sorted by (f, G, r). A point's status is ``ok`` if
+        any replicate is ok, and its values are then the mean over the ok replicates
+        (:func:`combine_replicates`), the others being listed in ``flags``
+        (``rep1:failed``). Without an ok replicate, the status is ``flagged`` if any is
+        flagged (values over the flagged ones, kept for inspection, never fitted), else
+        ``failed``, else ``missing`` (values NaN). ``case_id`` joins the replicates' ids
+        with ``;`` (just the one id without replicates); ``n_replicates`` counts those averaged.
+    """
+    by_id: dict[str, dict] = {}
+    for record in records:
+        by_id[record["case_id"]] = record
+    for case in expected or ():
+        by_id.setdefault(case.case_id, missing_record(case))
+    groups: dict[tuple[float, float, float], list[dict]] = {}
+    for record in by_id.values():
+        key = tuple(float(record[c]) for c in COORDINATE_COLUMNS)
+        groups.setdefault(key, []).append(record)
+    rows = [_table_row(point, sorted(group, key=lambda r: int(r.get("replicate", 0))))
+            for point, group in sorted(groups.items())]
+    table = pd.DataFrame(rows, columns=list(TABLE_COLUMNS))
+    return table
+
+
+def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dict:
+    """One grid point's row from its replicates' records."""
+    status_of = [r.get("status", "missing") for r in replicates]
+    best = min(status_of, key=_STATUS_ORDER.index)
+    used = [r for r, s in zip(replicates, status_of) if s == best and best in ("ok", "flagged")]
+    flags: list[str] = []
+    for record, status in zip(replicates, status_of):
+        rep = f"rep{record.get('replicate', 0)}"
+        prefix = f"{rep}:" if len(replicates) > 1 else ""
+        flags.extend(f"{prefix}{flag}" for flag in record.get("flags", []))
+        if status != best:
+            flags.append(f"{rep}:{status}")
+    row = dict(zip(COORDINATE_COLUMNS, point))
+    row.update(case_id=";".join(r["case_id"] for r in replicates), status=best,
+               flags=";".join(flags), n_replicates=len(used),
+               message=" | ".join(r["message"] for r in replicates if r.get("message")))
+    for value_key, sem_key in _MEAN_WITH_SEM:
+        row[value_key], row[sem_key] = combine_replicates(
+            [_number(r.get(value_key)) for r in used], [_number(r.get(sem_key)) for r in used])
+    row["n_cycles"] = int(sum(int(r.get("n_cycles") or 0) for r in used))
+    row["regime"] = regime(point[1])
+    row["ceq_relative_sem"], row["signal"] = signal_quality(row["ceq_coupon_ns_m"],
+                                                            row["ceq_coupon_sem_ns_m"])
+    timed = [r for r in replicates if r.get("status") in ("ok", "flagged")]
+    row["wall_time_s"] = float(sum(_number(r.get("wall_time_s")) for r in timed)) if timed else math.nan
+    row["liggghts_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "liggghts_wall_time_s")))
+                                             for r in timed)) if timed else math.nan)
+    row["solver_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "wall_time_s")))
+                                           for r in timed)) if timed else math.nan)
+    reference = (used or replicates)[0]
+    for column, keys in _SETTING_COLUMNS.items():
+        row[column] = _get(reference, keys)
+    return row
+
+
+def _number(value) -> float:
+    return math.nan if value is None else float(value)
+
+
+def read_record(path: str | os.PathLike) -> dict:
+    """Read a case record (JSON).
+
+    Raises
+    ------
+    ParseError
+        The file cannot be read or is not a case record.
+    """
+    try:
+        record = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ParseError(f"case record {path} cannot be read: {exc}") from None
+    if not isinstance(record, dict) or "case_id" not in record or "status" not in record:
+        raise ParseError(f"case record {path} is not a case record (no case_id or status)")
+    return record

@@ -1,0 +1,120 @@
+"""The design stage's steps: fit the surrogate, cross-validate it, optimise every design of every environment.
+
+Here the config's parts become the design's settings objects (:class:`~pidpipe.design.designs.Search`,
+:class:`~pidpipe.design.bootstrap.Bootstrap`, environments); nothing below reads the config.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING
+
+from pidpipe.files import write_atomic
+
+if TYPE_CHECKING:
+    from pidpipe.design.bootstrap import Bootstrap
+    from pidpipe.design.designs import Search
+
+logger = logging.getLogger("pidpipe.campaign")
+
+
+def fit_table_surrogate(table_path: str, method: str, surrogate_path: str,
+                        allow_holes: bool = False) -> None:
+    """Fit the configured surrogate to a C_eq table and save it (JSON).
+
+    With ``allow_holes`` grid points without an ok result are bridged by the RBF and listed in
+    the log; without it the fit stops and names them.
+    """
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.surrogate import fit_surrogate, save_surrogate
+
+    table = read_ceq_table(table_path)
+    surrogate = fit_surrogate(table, method=method, source=str(table_path), allow_holes=allow_holes)
+    if surrogate.holes:
+        logger.warning("surrogate bridges %d grid point(s) without an ok result (f Hz, G g, r %%): %s",
+                       len(surrogate.holes), surrogate.holes)
+    write_atomic(surrogate_path, lambda tmp: save_surrogate(surrogate, tmp))
+    logger.info("surrogate %s (%s target) on %d rows of %s; %d left out; domain %s", method,
+                surrogate.target, len(surrogate.training), table_path, len(surrogate.excluded),
+                surrogate.domain)
+
+
+def cross_validate_table(table_path: str, cv_path: str) -> None:
+    """Leave-one-out cross-validation of every surrogate method on a C_eq table (CSV)."""
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.surrogate import cross_validate, select_surrogate
+
+    cv = cross_validate(read_ceq_table(table_path))
+    write_atomic(cv_path, lambda tmp: cv.to_csv(tmp, index=False))
+    method, target = select_surrogate(cv)
+    logger.info("cross-validation of %s: %d (method, target, scheme) rows; best by the plane "
+                "scheme (or the default without one): %s, %s target", table_path, len(cv),
+                method, target)
+
+
+def search_settings(optimisation: dict) -> Search:
+    """The designs' search from the config's ``optimisation`` section."""
+    from pidpipe.design.band import BandRule
+    from pidpipe.design.designs import Search
+
+    return Search(starts=int(optimisation["starts"]), seed=int(optimisation["seed"]),
+                  rule=BandRule(quadrature_points=int(optimisation["band_quadrature_points"]),
+                                grid_points=int(optimisation["band_grid_points"])))
+
+
+def bootstrap_settings(bootstrap: dict) -> Bootstrap:
+    """The bootstrap from the config's ``optimisation.bootstrap`` section."""
+    from pidpipe.design.bootstrap import Bootstrap
+
+    return Bootstrap(draws=int(bootstrap["draws"]), starts=int(bootstrap["starts"]),
+                     seed=int(bootstrap["seed"]), confidence=float(bootstrap["confidence"]))
+
+
+def environment_objects(environments: list[dict]) -> list:
+    """The config's ``environments`` as :class:`~pidpipe.design.optimisation.Environment`."""
+    from pidpipe.design.optimisation import Environment
+
+    return [Environment(e["name"], tuple(e["freq_hz"]), tuple(e["accel_g"])) for e in environments]
+
+
+def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: dict,
+                       optimisation: dict, results_csv: str, history_csv: str, results_json: str,
+                       bootstrap_csv: str) -> None:
+    """Every design of every environment on a saved surrogate, with its bootstrap; write the
+    designs (CSV, JSON), the convergence histories and the bootstrap's draws (CSV).
+
+    Parameters
+    ----------
+    environments : list of dict
+        The config's ``environments``.
+    budget : dict
+        :class:`~pidpipe.design.optimisation.Budget`'s fields (``steps.params.budget_params``).
+    optimisation : dict
+        The config's ``optimisation`` section (starts, seed, band rule, bootstrap).
+    """
+    from pidpipe.design.designs import (
+        format_designs,
+        write_history_csv,
+        write_results_csv,
+        write_results_json,
+    )
+    from pidpipe.design.optimisation import Budget
+    from pidpipe.design.optimum import optimise_panel
+    from pidpipe.design.surrogate import load_surrogate
+
+    surrogate = load_surrogate(surrogate_path)
+    optimum = optimise_panel(surrogate, environment_objects(environments), Budget(**budget),
+                             search_settings(optimisation), bootstrap_settings(optimisation["bootstrap"]))
+    results = optimum.results
+    for res in results:
+        d = res.design
+        logger.info("%s, %s: r = %.2f %%, n_c = %d cells, total C_eq = %.6g N*s/m (band mean %.6g, "
+                    "worst %.6g, best %.6g); %d of %d starts converged%s", res.environment.name,
+                    res.kind, d.fill_pct, d.n_cells, d.total_ceq_ns_m, res.band.mean_total_ceq_ns_m,
+                    res.band.worst_total_ceq_ns_m, res.band.best_total_ceq_ns_m, res.n_converged,
+                    len(res.starts), f"; WARNING: {res.regime_warning}" if res.regime_warning else "")
+    logger.info("designs:\n%s", format_designs(results))
+    write_atomic(results_csv, lambda tmp: write_results_csv(results, tmp))
+    write_atomic(history_csv, lambda tmp: write_history_csv(results, tmp))
+    write_atomic(results_json, lambda tmp: write_results_json(results, tmp))
+    write_atomic(bootstrap_csv, lambda tmp: optimum.draws.to_csv(tmp, index=False))

@@ -1,0 +1,83 @@
+"""What each Snakemake rule receives: the validated config, the campaign's cases and packings, and each stage's part of the config.
+
+The parameters each rule receives are the parts of the config it depends on
+(:func:`stage_config`), with sorted keys, so an edit elsewhere in the config does not rerun it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
+from pidpipe.config import validate_config
+from pidpipe.config.settings import Budget
+from pidpipe.config.stages import sorted_keys
+from pidpipe.errors import ConfigError
+
+#: Snakemake wildcard constraint of a number in a case id (as written by ``format_number``).
+WILDCARD_NUMBER = NUMBER_PATTERN
+
+#: Snakemake wildcard constraint of a replicate index.
+WILDCARD_REPLICATE = r"[0-9]+"
+
+
+def workflow_config(raw: dict) -> dict:
+    """Validate the workflow's config; also check what only the workflow needs.
+
+    Besides :func:`pidpipe.config.validate_config` (whose schema also lists the surrogate
+    methods): an external C_eq table must exist (paths are relative to the working directory),
+    so that the run does not fail after the simulations.
+
+    Raises
+    ------
+    ConfigError
+    """
+    config = validate_config(raw)
+    external = config["optimisation"]["external_ceq_table"]
+    if external is not None and not Path(external).is_file():
+        raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "
+                          f"no such file (relative paths start at {Path.cwd()})")
+    return config
+
+
+def campaign_cases(config: dict) -> list[CaseSpec]:
+    """Every case of the campaign: the grid times ``grid.replicates`` runs."""
+    return grid_cases(config, replicates=int(config["grid"].get("replicates", 1)))
+
+
+def case_packing_ids(config: dict, case: CaseSpec) -> list[str]:
+    """The packings a case shakes: one per cell of its run (``fidelity.cells_per_run``)."""
+    return case.packing_ids(int(config["fidelity"]["cells_per_run"]))
+
+
+def campaign_packing_ids(config: dict) -> list[str]:
+    """Every packing the campaign's cases shake, sorted."""
+    return sorted({packing_id for case in campaign_cases(config)
+                   for packing_id in case_packing_ids(config, case)})
+
+
+def budget_params(config: dict) -> dict:
+    """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
+    return Budget.from_config(config).as_params()
+
+
+def environment_params(config: dict) -> list[dict]:
+    """The operating environments as plain, key-sorted dicts."""
+    return sorted_keys(config["environments"])
+
+
+def optimisation_params(config: dict) -> dict:
+    """The optimisation section without ``external_ceq_table`` (the table is the rule's input)."""
+    return sorted_keys({k: v for k, v in config["optimisation"].items() if k != "external_ceq_table"})
+
+
+#: The maps' uncertainty panels use at most this many of the bootstrap's draws (a standard
+#: deviation from 50 draws is good to about 10 % of itself; each draw costs a refit and a map).
+MAP_DRAWS = 50
+
+
+def map_uncertainty_params(config: dict) -> dict:
+    """Draws and seed of the maps' bootstrap spread: the first (at most :data:`MAP_DRAWS`) of
+    the optimum's draws, which the same seed redraws identically."""
+    bootstrap = config["optimisation"]["bootstrap"]
+    return {"draws": min(int(bootstrap["draws"]), MAP_DRAWS), "seed": int(bootstrap["seed"])}

@@ -1,0 +1,87 @@
+"""Resources that a cluster job of one case asks for: its time limit from the planned steps.
+
+A case's shaking run takes ``steps = cycles x steps_per_cycle`` time steps (the timestep plan of
+:meth:`pidpipe.cell.scene.CellScene.timestep`; cycles = transient + measured). With
+``fidelity.target_relative_sem`` set, :func:`pidpipe.measurement.adaptive.run_to_target` may run
+the case again with more measured cycles, up to ``fidelity.max_measured_cycles``, at most
+:data:`pidpipe.measurement.adaptive.MAX_STAGES` runs in all; the limit covers that worst case, since a job
+that SLURM stops at its limit loses all of its work.
+
+Wall time of the job, s: ``SETUP_S + steps * (US_PER_STEP_FIRST_CELL + (cells - 1) *
+US_PER_STEP_EXTRA_CELL) * 1e-6``, times :data:`MARGIN`, times the attempt (a job killed at its
+limit is retried with a longer one), in whole minutes (SLURM's ``--time``).
+"""
+
+from __future__ import annotations
+
+import math
+
+from pidpipe.cases import CaseSpec
+from pidpipe.cell.scene import CellScene
+from pidpipe.config.settings import ShakeSettings
+from pidpipe.measurement.adaptive import MAX_STAGES
+
+#: Seconds of a case job besides its time steps: Python and pidpipe start-up, deck and mesh,
+#: LIGGGHTS start-up and the parse. Measured Dec 2026 on the reduced campaign (2 cores shared):
+#: job time (Snakemake benchmark) minus LIGGGHTS wall time was 2.3 to 4.5 s per case.
+SETUP_S = 10.0
+#: Microseconds of LIGGGHTS wall time per step of a one-cell run (5 or 11 spheres): 35 to 48 us on
+#: the reduced campaign (Dec 2026, 2 shared cores; benchmarks/bench_slurm.py prints it).
+US_PER_STEP_FIRST_CELL = 50.0
+#: Microseconds per step that each further cell of the run adds: the default campaign (7 cells)
+#: took 102 to 126 us per planned step per case, start-up included (benchmarks/results.md,
+#: "Whole campaign", 2026-11-23 05:40), so (126 - 48) / 6 = 13 us.
+US_PER_STEP_EXTRA_CELL = 13.0
+#: Factor on the estimate: a fuller cell or a busier node is slower than the measured means.
+MARGIN = 2.0
+
+
+def case_planned_steps(settings: ShakeSettings, case: CaseSpec) -> int:
+    """Time steps of a case's shaking runs at most, all stages of a target SEM included.
+
+    Parameters
+    ----------
+    settings : ShakeSettings
+        The case's settings (the scene's timestep and the sampling are read).
+    case : CaseSpec
+
+    Returns
+    -------
+    int
+        (transient + measured) x steps_per_cycle; with ``fidelity.target_relative_sem`` set,
+        plus (MAX_STAGES - 1) reruns of (transient + max_measured_cycles) cycles each.
+    """
+    sampling = settings.sampling
+    steps_per_cycle = CellScene.of(settings).timestep(case.freq_hz).steps_per_cycle
+    transient = sampling.transient_cycles_at(case.freq_hz)
+    cycles = transient + sampling.measured_cycles
+    if sampling.target_relative_sem is not None:
+        cycles += (MAX_STAGES - 1) * (transient + sampling.max_measured_cycles)
+    return steps_per_cycle * cycles
+
+
+def case_wall_time_s(settings: ShakeSettings, case: CaseSpec) -> float:
+    """Expected wall time of a case job, s (no margin): start-up plus its planned steps."""
+    cells = settings.sampling.cells_per_run
+    us_per_step = US_PER_STEP_FIRST_CELL + (cells - 1) * US_PER_STEP_EXTRA_CELL
+    return SETUP_S + case_planned_steps(settings, case) * us_per_step * 1e-6
+
+
+def case_runtime_min(settings: ShakeSettings, case: CaseSpec, attempt: int = 1) -> int:
+    """The time limit of a case job, whole minutes: :func:`case_wall_time_s` x MARGIN x attempt.
+
+    Parameters
+    ----------
+    settings : ShakeSettings
+    case : CaseSpec
+    attempt : int
+        Snakemake's attempt of the job (1 first; a retry gets a longer limit).
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
+    if attempt < 1:
+        raise ValueError(f"attempt must be at least 1, got {attempt}")
+    return max(1, math.ceil(case_wall_time_s(settings, case) * MARGIN * attempt / 60.0))

@@ -1,0 +1,109 @@
+"""One case in the compiled DEM (engine: dem): the LIGGGHTS record's keys, the same packings,
+k cells as one batch, the adaptive cycles, and C_eq against LIGGGHTS on the same case."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pidpipe.cases import CaseSpec
+from pidpipe.cli import format_result
+from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case
+from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.shake import run_case
+from pidpipe.measurement.adaptive import run_to_target
+from pidpipe.steps.cases import case_runner, failed_record
+from tests.conftest import short_config
+
+pytestmark = pytest.mark.engine         # the packings are LIGGGHTS' pour
+
+CASE = CaseSpec(1000, 10, 25)
+
+
+@pytest.fixture(scope="module")
+def packings(tmp_path_factory):
+    """Replicates 0 and 1 of the 25 % fill (5 spheres each)."""
+    folder = tmp_path_factory.mktemp("pour25")
+    return [pour(PourSettings.from_config(short_config()), 25, k, folder / f"rep{k}") for k in range(2)]
+
+
+@pytest.fixture(scope="module")
+def both(packings, tmp_path_factory):
+    """The same case and packing in LIGGGHTS and in the DEM (short windows)."""
+    config = short_config(transient=10, measured=20)
+    liggghts = run_case(ShakeSettings.from_config(config), CASE, packings[0], tmp_path_factory.mktemp("liggghts"))
+    return liggghts, run_dem_case(ShakeSettings.from_config(config), CASE, packings[0])
+
+
+def _keys(record: dict, prefix: str = "") -> set[str]:
+    """Key paths of a record, nested dicts included (lists not entered)."""
+    out = set()
+    for key, value in record.items():
+        out.add(prefix + key)
+        if isinstance(value, dict):
+            out |= _keys(value, prefix + key + ".")
+    return out
+
+
+def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
+    liggghts, dem = both
+    missing = {key for key in _keys(liggghts) - _keys(dem)
+               if not key.startswith("engine.liggghts_")}  # LIGGGHTS' own loop/CPU figures
+    assert not missing
+    assert liggghts["solver"] == "liggghts" and dem["solver"] == "numba-dem"
+    assert dem["engine"]["name"] == dem["fidelity"]["engine"] == "dem"
+    assert liggghts["engine"]["name"] == liggghts["fidelity"]["engine"] == "liggghts"
+    assert dem["fidelity"]["seed"] == liggghts["fidelity"]["seed"]
+    assert dem["fidelity"]["timestep_s"] == liggghts["fidelity"]["timestep_s"]
+    assert len(dem["cycles"]["dissipated_j"]) == len(liggghts["cycles"]["dissipated_j"]) == 30
+    json.dumps(dem)
+    assert "numba-dem" in format_result(dem)
+
+
+def test_both_engines_give_the_same_ceq_within_their_errors(both):
+    liggghts, dem = both
+    combined = math.hypot(liggghts["ceq_cell_sem_ns_m"], dem["ceq_cell_sem_ns_m"])
+    assert abs(dem["ceq_cell_ns_m"] - liggghts["ceq_cell_ns_m"]) < 3.0 * combined
+    assert dem["status"] == "ok", dem["flags"]
+    assert dem["ledger_mismatch_of_gross_work"] < BALANCE_TOLERANCE
+
+
+def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, both):
+    """The DEM's cells are independent by construction: in a batch of two, the first cell's
+    series is the single-cell run's to rounding, and the case reports the mean cell."""
+    _, alone = both
+    config = short_config(transient=10, measured=20)
+    together = run_dem_case(ShakeSettings.from_config(config), CASE, packings)
+    assert together["fidelity"]["cells_per_run"] == 2 and len(together["cells"]) == 2
+    assert together["fidelity"]["seeds"] == [p.seed for p in packings]
+    first = np.array(together["cells"][0]["dissipated_j"])
+    np.testing.assert_allclose(first, alone["cycles"]["dissipated_j"], rtol=1e-9)
+    mean_cell = np.mean([c["ceq_cell_ns_m"] for c in together["cells"]])
+    assert together["ceq_cell_ns_m"] == pytest.approx(mean_cell, rel=1e-9)
+    assert together["ceq_cell_sem_ns_m"] >= together["ceq_cell_cycle_sem_ns_m"]
+
+
+def test_adaptive_cycles_extend_a_dem_case_until_the_target(packings):
+    config = short_config(transient=10, measured=8)
+    config["fidelity"].update(target_relative_sem=0.05, max_measured_cycles=200)
+    record = run_to_target(ShakeSettings.from_config(config), CASE, packings[0], "unused", run=run_dem_case)
+    stages = record["target"]["stages"]
+    assert stages[0] == 8 and len(stages) >= 2
+    assert record["fidelity"]["measured_cycles"] == stages[-1]
+    assert record["target"]["reached"] or stages[-1] == 200
+    assert record["target"]["cpu_time_s"] > 0
+
+
+def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_case():
+    config = short_config()
+    dem = copy.deepcopy(config)
+    dem["engine"] = "dem"
+    assert case_runner(ShakeSettings.from_config(dem)) is run_dem_case
+    assert case_runner(ShakeSettings.from_config(config)) is run_case
+    failed = failed_record(ShakeSettings.from_config(dem), CASE, 5, [1], "boom")
+    assert failed["solver"] == "numba-dem" and failed["fidelity"]["engine"] == "dem"

@@ -1,0 +1,51 @@
+"""Time limits of case jobs on a cluster (pidpipe.steps.resources)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from pidpipe.cases import CaseSpec
+from pidpipe.cell.scene import CellScene
+from pidpipe.config import validate_config
+from pidpipe.config.settings import ShakeSettings
+from pidpipe.measurement.adaptive import MAX_STAGES
+from pidpipe.steps import resources as cr
+
+CASE = CaseSpec(500.0, 5.0, 50.0)
+
+
+def test_planned_steps_are_cycles_times_steps_per_cycle(config):
+    config["fidelity"].update(transient_cycles=5, transient_min_time_s=0.0, measured_cycles=40)
+    spc = CellScene.from_config(config).timestep(500.0).steps_per_cycle
+    assert cr.case_planned_steps(ShakeSettings.from_config(config), CASE) == 45 * spc
+    # A lower frequency has longer cycles, so more steps for the same cycles.
+    assert cr.case_planned_steps(ShakeSettings.from_config(config), CaseSpec(50.0, 5.0, 50.0)) > 9 * 45 * spc
+
+
+def test_a_target_sem_plans_for_every_stage_at_the_cap(config):
+    config["fidelity"].update(transient_cycles=5, transient_min_time_s=0.0, measured_cycles=40,
+                              target_relative_sem=0.05, max_measured_cycles=400)
+    spc = CellScene.from_config(validate_config(config)).timestep(500.0).steps_per_cycle
+    assert cr.case_planned_steps(ShakeSettings.from_config(config), CASE) == (45 + (MAX_STAGES - 1) * 405) * spc
+
+
+def test_runtime_is_the_estimate_with_margin_in_whole_minutes_and_grows_with_attempt(config):
+    config["fidelity"]["cells_per_run"] = 7
+    seconds = cr.case_wall_time_s(ShakeSettings.from_config(config), CASE)
+    steps = cr.case_planned_steps(ShakeSettings.from_config(config), CASE)
+    assert seconds == pytest.approx(cr.SETUP_S + steps * (cr.US_PER_STEP_FIRST_CELL
+                                                          + 6 * cr.US_PER_STEP_EXTRA_CELL) * 1e-6)
+    first = cr.case_runtime_min(ShakeSettings.from_config(config), CASE)
+    assert first == math.ceil(seconds * cr.MARGIN / 60)
+    assert cr.case_runtime_min(ShakeSettings.from_config(config), CASE, attempt=2) == math.ceil(seconds * cr.MARGIN * 2 / 60)
+    assert cr.case_runtime_min(ShakeSettings.from_config(config), CASE, attempt=2) >= 2 * first - 1
+
+
+def test_runtime_is_at_least_a_minute_and_attempt_must_be_positive(config):
+    config["fidelity"].update(transient_cycles=1, transient_min_time_s=0.0, measured_cycles=2,
+                              cells_per_run=1)
+    assert cr.case_runtime_min(ShakeSettings.from_config(config), CaseSpec(1000.0, 5.0, 25.0)) == 1
+    with pytest.raises(ValueError, match="attempt"):
+        cr.case_runtime_min(ShakeSettings.from_config(config), CASE, attempt=0)

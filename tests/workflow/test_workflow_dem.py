@@ -1,0 +1,58 @@
+"""The reduced campaign (.test/config.yaml) with ``engine: dem``: every case shaken by the
+compiled DEM on LIGGGHTS' pour, through the same table, surrogate and optimum."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests._snakemake import WORKFLOW_MARKS, planned_jobs, snakemake, write_config
+
+pytestmark = WORKFLOW_MARKS
+
+
+@pytest.fixture(scope="module")
+def dem_campaign(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("dem_campaign")
+    write_config(workdir, engine="dem")
+    run = snakemake(workdir)
+    assert run.returncode == 0, run.stdout[-5000:]
+    return workdir
+
+
+def test_every_case_is_shaken_by_the_compiled_dem(dem_campaign):
+    table = pd.read_csv(dem_campaign / "results" / "ceq_table.csv")
+    assert len(table) == 8
+    assert (table["solver"] == "numba-dem").all()
+    assert table["solver_version"].str.startswith("numba").all()
+    assert table["liggghts_version"].isna().all()
+    ok = table[table["status"] == "ok"]
+    assert len(ok) >= 5, table[["case_id", "status", "flags"]]
+    for column in ("ceq_coupon_ns_m", "ceq_cell_ns_m", "ed_cycle_mean_j", "solver_wall_time_s"):
+        values = ok[column].to_numpy(dtype=float)
+        assert np.all(np.isfinite(values) & (values > 0)), column
+    assert np.all(ok["ceq_coupon_sem_ns_m"] < ok["ceq_coupon_ns_m"])
+    for case_id in table["case_id"]:
+        record = json.loads((dem_campaign / "results" / "cases" / f"{case_id}.json").read_text())
+        assert record["fidelity"]["engine"] == "dem" and record["engine"]["name"] == "dem"
+        log = (dem_campaign / "logs" / "simulate_case" / f"{case_id}.log").read_text()
+        assert "(numba-dem)" in log
+
+
+def test_the_rest_of_the_campaign_runs_on_the_dem_table(dem_campaign):
+    for path in ("surrogate.json", "surrogate_cv.csv", "optimum.csv",
+                 "figures/ceq_freq_fill.png", "figures/convergence.png"):
+        assert (dem_campaign / "results" / path).is_file(), path
+
+
+def test_switching_the_engine_reruns_every_case_but_no_pour(dem_campaign):
+    write_config(dem_campaign, engine="liggghts")
+    try:
+        jobs = planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)
+    finally:
+        write_config(dem_campaign, engine="dem")
+    assert jobs.get("simulate_case") == 8
+    assert "pour_packing" not in jobs
