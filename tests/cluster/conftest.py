@@ -1,6 +1,6 @@
 """The real single-node SLURM of the cluster tests (tests/cluster/local_slurm.py).
 
-One cluster per test session, started on first use and shut down at the end. It is never
+One cluster for the tests of this folder, started on first use and shut down after them. It is never
 skipped: if SLURM cannot be installed or started, every test that uses it fails with the
 daemons' logs.
 """
@@ -12,7 +12,7 @@ import pytest
 from tests.cluster import local_slurm
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def slurm_cluster(tmp_path_factory):
     """A started :class:`~tests.cluster.local_slurm.LocalSlurm`: this machine as its one idle node."""
     try:

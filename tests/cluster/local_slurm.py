@@ -18,6 +18,7 @@ them (it never skips).
 
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import shutil
@@ -42,6 +43,17 @@ CONF_HEADER = "# Written by tests/cluster/local_slurm.py: one node (this machine
 MIN_JOB_AGE_S = 600
 #: Seconds between SIGTERM and SIGKILL when a job is cancelled or hits its time limit.
 KILL_WAIT_S = 5
+#: Held while a cluster of this module runs: two at once on one machine would share
+#: /etc/slurm/slurm.conf and munged (two test sessions on one machine wait for each other).
+LOCK_FILE = Path("/run/lock/pidpipe-test-slurm.lock")
+LOCK_TIMEOUT_S = 3600
+
+#: How slurmd finds a job's processes to signal them. proctrack/linuxproc follows parent links:
+#: the Snakemake that runs a group job ignores SIGTERM (it waits for its jobs), outlives the
+#: batch script, is re-parented to init and was never killed (found running 27 min after its
+#: job was cancelled). proctrack/pgid signals the job's process group, which it stays in.
+#: Sites use proctrack/cgroup, which needs cgroup set-up that a CI machine may not allow.
+PROCTRACK = "proctrack/pgid"
 
 
 class SlurmStartError(RuntimeError):
@@ -116,7 +128,7 @@ SlurmdUser=root
 AuthType=auth/munge
 CredType=cred/munge
 MpiDefault=none
-ProctrackType=proctrack/linuxproc
+ProctrackType={PROCTRACK}
 TaskPlugin=task/none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core_Memory
@@ -171,6 +183,8 @@ class LocalSlurm:
     processes: dict[str, subprocess.Popen] = field(default_factory=dict)
     munged_pid: int | None = None
     moved_conf: Path | None = None
+    lock: object | None = None
+    text: str = ""
 
     def env(self) -> dict[str, str]:
         """Environment variables that point SLURM's commands at this cluster."""
@@ -202,8 +216,13 @@ class LocalSlurm:
         out.close()
 
     def stop(self) -> None:
-        """Shut down the daemons this object started (``scontrol shutdown``, then by pid)."""
-        if self.processes:
+        """Shut down the daemons this object started (``scontrol shutdown``, then by pid).
+
+        ``scontrol`` and the removal of /etc/slurm/slurm.conf only while that file is still the
+        one this cluster wrote: another test session's cluster is never touched.
+        """
+        ours = SYSTEM_CONF.is_file() and SYSTEM_CONF.read_text() == self.text
+        if self.processes and ours:
             self.command("scontrol", "shutdown", timeout=30)
         for name, proc in self.processes.items():
             try:
@@ -222,11 +241,14 @@ class LocalSlurm:
             except ProcessLookupError:
                 pass
             self.munged_pid = None
-        if SYSTEM_CONF.is_file() and SYSTEM_CONF.read_text().startswith(CONF_HEADER):
+        if ours:
             SYSTEM_CONF.unlink()
         if self.moved_conf is not None:
             self.moved_conf.rename(SYSTEM_CONF)
             self.moved_conf = None
+        if self.lock is not None:
+            self.lock.close()  # releases the flock
+            self.lock = None
 
 
 def _start_munged(cluster: LocalSlurm) -> None:
@@ -274,20 +296,32 @@ def start(root: Path, timeout_s: float = 90) -> LocalSlurm:
         A package, munged, slurmctld or slurmd failed; the message holds their logs.
     """
     install_packages()
+    LOCK_FILE.parent.mkdir(parents=True, exist_ok=True)
+    lock = open(LOCK_FILE, "a+")
+    deadline = time.monotonic() + LOCK_TIMEOUT_S
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            break
+        except BlockingIOError:
+            if time.monotonic() > deadline:
+                lock.close()
+                raise SlurmStartError(f"another test SLURM held {LOCK_FILE} for {LOCK_TIMEOUT_S} s")
+            time.sleep(2)
     root = Path(root)
     for sub in ("state", "spool"):
         (root / sub).mkdir(parents=True, exist_ok=True)
     hardware = node_hardware()
     conf = SYSTEM_CONF
     cluster = LocalSlurm(root=root, conf=conf, cpus=int(hardware["CPUs"]),
-                         real_memory_mb=int(hardware["RealMemory"]))
+                         real_memory_mb=int(hardware["RealMemory"]), lock=lock)
     conf.parent.mkdir(parents=True, exist_ok=True)
     if conf.is_file() and not conf.read_text().startswith(CONF_HEADER):
         cluster.moved_conf = conf.with_name(conf.name + ".moved-by-pidpipe-tests")
         conf.rename(cluster.moved_conf)
-    text = slurm_conf(root, hardware, _free_ports(2))
-    (root / "slurm.conf").write_text(text)
-    conf.write_text(text)
+    cluster.text = slurm_conf(root, hardware, _free_ports(2))
+    (root / "slurm.conf").write_text(cluster.text)
+    conf.write_text(cluster.text)
     try:
         _start_munged(cluster)
         cluster._start("slurmctld", "-D", "-c", "-f", str(conf))
