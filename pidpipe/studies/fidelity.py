@@ -198,7 +198,9 @@ def variant_config(config: dict, variant: Variant) -> dict:
     except ConfigError as exc:
         raise ConfigError(f"config key {where} (setting {variant.name!r}) is not allowed, after "
                           f"merging into fidelity: {exc}") from None
-    shaking = set(stage_config(merged, "case")["fidelity"])
+    # The case stage also carries the pour's seed and settle time (for the further packings
+    # a case's target pours); the study shakes the campaign's packings, so not these.
+    shaking = set(stage_config(merged, "case")["fidelity"]) - {"seed", "settle_time_s"}
     for key in sorted(variant.overrides):
         if key not in shaking:
             raise ConfigError(f"config key {where}.{key} is not allowed: the study shakes the "
