@@ -31,6 +31,7 @@ from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles, start
 from pidpipe.liggghts.parsing import CycleSeries
 from pidpipe.liggghts.shake import RECORD_VERSION, as_packing_list, containment_flags
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 
@@ -66,7 +67,7 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
     for index, packing in enumerate(packings):
         check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
     k = len(packings)
-    fidelity, sampling = settings.fidelity, settings.sampling
+    sampling = settings.sampling
     block = sampling.sem_block_cycles
     configured_transient = sampling.transient_cycles_at(case.freq_hz)
     n_cycles = configured_transient + sampling.measured_cycles
@@ -108,22 +109,9 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
         "wall_work_cycle_mean_j": float(series.wall_work_j[measured].mean()) / k,
         "ledger_mismatch_of_gross_work": mismatch,
         "cycles": series.as_record(),
-        "fidelity": {
-            **cell_scene.timestep(case.freq_hz).as_record(),
-            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
-            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
-            "transient_cycles": transient,
-            "transient_cycles_configured": configured_transient,
-            "measured_cycles": sampling.measured_cycles,
-            "sem_block_cycles": block,
-            "rotation": fidelity.rotation,
-            "friction": fidelity.friction,
-            "cells_per_run": k,
-            "seed": packings[0].seed,
-            "seeds": [packing.seed for packing in packings],
-            "pile_height_m": packings[0].pile_height_m,
-            "engine": ENGINE_NAME,
-        },
+        "fidelity": fidelity_record(settings, cell_scene.timestep(case.freq_hz), transient,
+                                    [packing.seed for packing in packings], ENGINE_NAME,
+                                    configured_transient, packings[0].pile_height_m),
         "engine": engine_record(wall_time, cpu_time, n_cycles * scene.steps_per_cycle),
         "dem": {
             "balance_dissipated_j": balance.sum(axis=0).tolist(),

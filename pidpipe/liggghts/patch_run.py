@@ -144,12 +144,12 @@ def run_patch(settings: ShakeSettings, freq_hz: float, accel_g: float, packings:
     plan = render_patch_deck(settings, freq_hz, accel_g, packings, centres_m, workdir, label,
                              flip_normals)
     engine = run_deck(plan["deck"], label)
-    cell = CellScene.of(settings).cell
+    scene = CellScene.of(settings)
+    cell, radius = scene.cell, scene.radius_m
     total = read_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"], plan["cycles"])
     steps, frames = read_dump_frames(workdir / SPHERE_FILE, len(SPHERE_COLUMNS))
     per_cell = cell_cycles(steps, frames, plan["cell_index"], plan["period_s"], plan["cycles"],
                            STANDARD_GRAVITY_M_S2, cell.floor_z_m)
-    radius = CellScene.of(settings).radius_m
     contained = [spheres_in_own_cells(cell, centres_m, frame[:, 1:4], plan["cell_index"], radius,
                                       CONTAINMENT_TOL_RADII * radius) for frame in frames]
     transient = plan["transient_cycles"]

@@ -34,6 +34,7 @@ from pidpipe.liggghts.movie import movie_deck_values
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2, sphere_mass
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
@@ -193,7 +194,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     plan = render_shake_deck(settings, case, packings, workdir, movie=movie)
     engine = run_deck(plan["deck"], case.case_id)
     cells, series, ledger_mismatch = read_cell_series(plan["scene"], plan, workdir)
-    fidelity, sampling = settings.fidelity, settings.sampling
+    sampling = settings.sampling
     configured_transient = sampling.transient_cycles_at(case.freq_hz)
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,
                                  sampling.sem_block_cycles)
@@ -226,22 +227,9 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()) / len(cells),
         "ledger_mismatch_of_gross_work": ledger_mismatch,
         "cycles": series.as_record(),
-        "fidelity": {
-            **plan["timestep"].as_record(),
-            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
-            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
-            "transient_cycles": transient,
-            "transient_cycles_configured": configured_transient,
-            "measured_cycles": sampling.measured_cycles,
-            "sem_block_cycles": sampling.sem_block_cycles,
-            "rotation": fidelity.rotation,
-            "friction": fidelity.friction,
-            "cells_per_run": len(packings),
-            "seed": packings[0].seed,
-            "seeds": [packing.seed for packing in packings],
-            "pile_height_m": packings[0].pile_height_m,
-            "engine": "liggghts",
-        },
+        "fidelity": fidelity_record(settings, plan["timestep"], transient,
+                                    [packing.seed for packing in packings], "liggghts",
+                                    configured_transient, packings[0].pile_height_m),
         "engine": {
             "name": "liggghts",
             "solver": "liggghts",

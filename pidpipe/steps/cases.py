@@ -219,8 +219,8 @@ def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds
     ``seeds`` are those of its packings, one per cell of the run.
     """
     from pidpipe.cell.scene import CellScene
+    from pidpipe.measurement.run_record import fidelity_record
 
-    fidelity, sampling = settings.fidelity, settings.sampling
     seeds = [int(seed) for seed in seeds]
     nan = float("nan")
     return {
@@ -229,19 +229,9 @@ def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds
         "n_spheres": n_spheres, "status": "failed", "flags": [], "message": message,
         "ceq_coupon_ns_m": nan, "ceq_coupon_sem_ns_m": nan, "ceq_cell_ns_m": nan,
         "ceq_cell_sem_ns_m": nan, "ed_cycle_mean_j": nan, "ed_cycle_sem_j": nan, "n_cycles": 0,
-        "fidelity": {
-            **CellScene.of(settings).timestep(case.freq_hz).as_record(),
-            "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
-            "youngs_modulus_scale": fidelity.youngs_modulus_scale,
-            "transient_cycles": sampling.transient_cycles_at(case.freq_hz),
-            "measured_cycles": sampling.measured_cycles,
-            "sem_block_cycles": sampling.sem_block_cycles,
-            "rotation": fidelity.rotation, "friction": fidelity.friction,
-            "cells_per_run": len(seeds),
-            "seed": seeds[0],
-            "seeds": seeds,
-            "engine": settings.engine,
-        },
+        "fidelity": fidelity_record(settings, CellScene.of(settings).timestep(case.freq_hz),
+                                    settings.sampling.transient_cycles_at(case.freq_hz), seeds,
+                                    settings.engine),
         "engine": {"name": settings.engine, "solver": solver_name(settings)},
         "wall_time_s": nan,
     }
