@@ -9,6 +9,10 @@ the pours (the grid's and those poured on demand into the shared pool).
 
 Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
          [--set fidelity.target_relative_sem=0.1 --set grid.freq_hz=[500,1000] ...] [--keep DIR]
+         [--workdir DIR]
+
+``--workdir DIR`` runs the campaign in DIR (created, kept afterwards) instead of a scratch
+folder, so that its results can be used again, e.g. by ``snakemake validate`` in DIR.
 """
 
 from __future__ import annotations
@@ -36,9 +40,13 @@ def main() -> None:
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
                         help="override one config value (repeatable)")
     parser.add_argument("--keep", metavar="DIR", help="copy the case records here")
+    parser.add_argument("--workdir", metavar="DIR",
+                        help="run in DIR and keep it (default: a scratch folder, removed)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
-        work = Path(scratch)
+        work = Path(args.workdir) if args.workdir else Path(scratch)
+        if args.workdir:
+            work.mkdir(parents=True, exist_ok=False)
         for item in ("Snakefile", "workflow", "templates"):
             source = REPO / item
             (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
@@ -64,7 +72,9 @@ def main() -> None:
                          "job": tsv.stem, "s": float(frame["s"].iloc[0])})
         jobs = pd.DataFrame(rows)
         records = [json.loads(p.read_text()) for p in (work / "results" / "cases").glob("*.json")]
-        pool = len(list((work / "results" / "packings" / "pool").glob("*.json")))
+        pool = len(list((work / "results" / "packings" / "pool").glob("*rep*.json")))
+        pour_cpu = sum(sum(json.loads(p.read_text()).values())
+                       for p in (work / "results" / "packings").rglob("*_pour_cpu_s.json"))
         if args.keep:
             shutil.copytree(work / "results" / "cases", args.keep, dirs_exist_ok=True)
         cases = pd.DataFrame([case_row(r) for r in records])
@@ -76,7 +86,8 @@ def main() -> None:
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
              f"{int(counted['not_chased'].sum())} not chased (not resolved from zero); relative SEM "
              f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
-             f"{pool} packings poured on demand into the pool", "",
+             f"{pool} packings poured on demand into the pool; LIGGGHTS CPU of the pool's pours "
+             f"{pour_cpu:.0f} s", "",
              "| stage (rule) | jobs | summed job time s |", "|---|---|---|"]
     for rule, group in jobs.groupby("rule"):
         lines.append(f"| {rule} | {len(group)} | {group['s'].sum():.1f} |")
