@@ -12,6 +12,7 @@ User errors print one line and exit 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 import sys
 from pathlib import Path
 
@@ -37,6 +38,9 @@ def _parser() -> argparse.ArgumentParser:
     case.add_argument("--record", type=Path, help="write the case record (JSON) here")
     case.add_argument("--engine", choices=("liggghts", "dem"),
                       help="solver that shakes the case (default: the config's engine)")
+    case.add_argument("--pilot-only", action="store_true",
+                      help="run the pilot only (cells_per_run x measured_cycles), not on to the "
+                           "config's fidelity.target_relative_sem")
     case.add_argument("--movie", action="store_true",
                       help="also write a ParaView movie of the last cycles (VTK series, movie.pvd; "
                            "frames and cycles from the config's inspection section)")
@@ -85,14 +89,15 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.config.settings import PourSettings, ShakeSettings
     from pidpipe.liggghts.pour import pour
     from pidpipe.liggghts.shake import write_record
-    from pidpipe.steps.cases import case_runner
+    from pidpipe.steps.cases import measure_case
 
     config = load_config(args.config)
     if args.engine:
         config["engine"] = args.engine
     _check_case_arguments(args, config)
     pouring, shaking = PourSettings.from_config(config), ShakeSettings.from_config(config)
-    run_case = case_runner(shaking)
+    if args.pilot_only:
+        shaking = replace(shaking, sampling=replace(shaking.sampling, target_relative_sem=None))
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
     cells = shaking.sampling.cells_per_run
     replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
@@ -102,8 +107,11 @@ def run_case_command(args: argparse.Namespace) -> int:
     for packing in packings:
         check_packing(packing, case.case_id)
     cycles = shaking.sampling.transient_cycles_at(case.freq_hz) + shaking.sampling.measured_cycles
+    target = shaking.sampling.target_relative_sem
     print(f"pidpipe: {case.case_id}: shaking {cells} cell(s) of {packings[0].n_spheres} spheres "
-          f"for {cycles} cycles in {shaking.engine} ...", file=sys.stderr, flush=True)
+          f"for {cycles} cycles in {shaking.engine}"
+          + (f", then on until the SEM is {100 * target:g} % of C_eq (further packings poured "
+             f"into {args.workdir / 'pool'})" if target else "") + " ...", file=sys.stderr, flush=True)
     movie, movie_dir = None, None
     if args.movie:
         from pidpipe.config.inspection import movie_settings
@@ -112,9 +120,8 @@ def run_case_command(args: argparse.Namespace) -> int:
             raise PidpipeError("--movie is written from LIGGGHTS' dumps: it needs --engine liggghts")
         movie = movie_settings(config)
         movie_dir = args.movie_dir or args.workdir / case.case_id / "movie"
-    record = (run_case(shaking, case, packings, args.workdir / case.case_id, movie=movie,
-                       movie_dir=movie_dir) if movie else
-              run_case(shaking, case, packings, args.workdir / case.case_id))
+    record = measure_case(shaking, case, packings, args.workdir / case.case_id, pouring,
+                          args.workdir / "pool", movie=movie, movie_dir=movie_dir)
     if args.record:
         write_record(record, args.record)
     print(format_result(record))
@@ -147,6 +154,12 @@ def format_result(record: dict) -> str:
         f"  engine          : {record['solver']} ({record['engine']['version'].split(',')[0]}), "
         f"{record['engine']['wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
     ]
+    target = record.get("target")
+    if target:
+        lines.insert(2, f"  target          : SEM <= {100 * target['relative_sem']:g} % of C_eq "
+                        f"{'reached' if target['reached'] else 'NOT reached (a cap stopped it)'} with "
+                        f"{target['cells']} cells x {target['measured_cycles']} measured cycles in "
+                        f"{len(target['runs'])} run(s), engine CPU {target['cpu_time_s']:.1f} s")
     if record.get("cells"):
         lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "
                         f"{record['ceq_cell_cycle_sem_ns_m']:.2g}, from the spread between cells "

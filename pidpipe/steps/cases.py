@@ -122,37 +122,25 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The packing does not fit or has not settled.
     """
     from pidpipe.cell.packing import load_packing
-    from pidpipe.cell.scene import CellScene
     from pidpipe.liggghts.shake import write_record
-    from pidpipe.measurement.adaptive import run_to_target
-    from pidpipe.measurement.cost_model import load_cost_model
 
     case = CaseSpec.from_id(case_id)
     settings = ShakeSettings.from_config(config)
-    plan = CellScene.of(settings).timestep(case.freq_hz)
-    run_case = case_runner(settings)
+    case_runner(settings)           # a missing engine fails the step here, not as a failed case
+    pour_settings = PourSettings.from_config(config) if packing_pool else None
     packings = [load_packing(path) for path in packing_paths]
-
-    def new_packings(first: int, count: int) -> list:
-        indices = [extra_packing_index(case.replicate, cell) for cell in range(first, first + count)]
-        return pool_packings(PourSettings.from_config(config), case.fill_pct, indices, packing_pool)
-
-    shake = run_case
+    movie_settings = None
     if movie and settings.engine == "liggghts":
-        shake = functools.partial(run_case, movie=MovieSettings(int(movie["frames_per_cycle"]),
-                                                               int(movie["cycles"])),
-                                  movie_dir=movie["directory"])
+        movie_settings = MovieSettings(int(movie["frames_per_cycle"]), int(movie["cycles"]))
     elif movie:
         logger.warning("case %s: no movie: the movie is written from LIGGGHTS' dumps, and this "
                        "campaign's engine is %s", case_id, settings.engine)
     failures = []
     for attempt in range(1, ENGINE_ATTEMPTS + 1):
         try:
-            record = run_to_target(settings, case, packings, workdir, run=shake,
-                                   new_packings=new_packings if packing_pool else None,
-                                   cost_model=load_cost_model(settings.engine),
-                                   steps_per_cycle=plan.steps_per_cycle,
-                                   transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
+            record = measure_case(settings, case, packings, workdir, pour_settings, packing_pool,
+                                  movie=movie_settings,
+                                  movie_dir=movie["directory"] if movie_settings else None)
         except (EngineError, ParseError) as exc:
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
@@ -176,6 +164,51 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         record["engine_attempts"] = ENGINE_ATTEMPTS
     write_record(record, record_path)
     return record
+
+
+def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdir: str | Path,
+                 pour_settings: PourSettings | None = None, packing_pool: str | Path | None = None,
+                 movie: MovieSettings | None = None, movie_dir: str | Path | None = None) -> dict:
+    """One case measured to its target (:func:`pidpipe.measurement.adaptive.run_to_target`).
+
+    Parameters
+    ----------
+    settings : ShakeSettings
+        The case's settings (engine, ``sampling.target_relative_sem`` and its caps).
+    case : CaseSpec
+    packings : list of Packing
+        The pilot's cells, one per cell of its run.
+    workdir : path
+        The case's folder (run 0 there, run i in ``run<i>``).
+    pour_settings : PourSettings, optional
+        How the further packings of a case with a target are poured, into ``packing_pool``
+        (:func:`pool_packings`); None (or no pool): the case keeps its pilot's cells.
+    movie, movie_dir : optional
+        Also write each LIGGGHTS run's ParaView movie into ``movie_dir`` (engine liggghts only).
+
+    Returns
+    -------
+    dict
+        The case's combined record (every run that made it in ``target.runs``).
+    """
+    from pidpipe.cell.scene import CellScene
+    from pidpipe.measurement.adaptive import run_to_target
+    from pidpipe.measurement.cost_model import load_cost_model
+
+    plan = CellScene.of(settings).timestep(case.freq_hz)
+    shake = case_runner(settings)
+    if movie is not None:
+        shake = functools.partial(shake, movie=movie, movie_dir=movie_dir)
+    new_packings = None
+    if pour_settings is not None and packing_pool is not None:
+        def new_packings(first: int, count: int) -> list:
+            indices = [extra_packing_index(case.replicate, cell)
+                       for cell in range(first, first + count)]
+            return pool_packings(pour_settings, case.fill_pct, indices, packing_pool)
+    return run_to_target(settings, case, packings, workdir, run=shake, new_packings=new_packings,
+                         cost_model=load_cost_model(settings.engine),
+                         steps_per_cycle=plan.steps_per_cycle,
+                         transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
 
 
 def case_runner(settings: ShakeSettings):
