@@ -80,6 +80,19 @@ def _host_energy(host_p, state, dt):
 
 
 @njit(cache=True, error_model="numpy")
+def set_up_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
+                   normals, offsets, zw, vw):
+    """The forces of the initial state with the walls at ``zw`` (m) moving at ``vw`` (m/s), as
+    :func:`pidpipe.dem.kernel.set_up` (no history update; its energy terms are not counted)."""
+    _pack(x, v, w, f, t, body)
+    for b in range(x.shape[1]):
+        out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
+                      vw, 0.0, False)
+        wall_fz[b] = out[0]
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
 def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
                 normals, offsets, host_p, host_state, step0, n_cycles, steps_per_cycle,
                 reference, out_cycle, out_terms, out_energy, out_host_energy):
@@ -215,4 +228,4 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
 
-__all__ = ["run_coupled", "N_ENERGY_ROWS"]
+__all__ = ["run_coupled", "set_up_coupled", "N_ENERGY_ROWS"]

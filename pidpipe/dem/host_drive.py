@@ -19,6 +19,7 @@ from pidpipe.dem import compiled, coupled
 from pidpipe.dem.energy import centre_of_mass_height
 from pidpipe.dem.run import prepare
 from pidpipe.dem.scene import Scene
+from pidpipe.dem.state import initial_state
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,8 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
     host : HostDrive
     n_cycles : int
     initial_displacement_m, initial_velocity_m_s : float
-        The host's state at t = 0 (m, m/s); the spheres start at rest.
+        The host's state at t = 0 (m, m/s); the packings start resting on its floor (shifted
+        by the displacement, moving with its velocity).
 
     Returns
     -------
@@ -85,14 +87,16 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
     started = time.process_time()
     k = 0 if positions_m is None else int(np.asarray(positions_m).shape[0])
     if k == 0:
-        positions = np.zeros((0, 1, 3))
         scene = dataclasses.replace(scene, accel_g=np.zeros(0))
-        from pidpipe.dem.state import initial_state
-        state = initial_state(positions)
+        state = initial_state(np.zeros((0, 1, 3)))
     else:
         scene, state = prepare(dataclasses.replace(scene, accel_g=np.zeros(k)), positions_m)
+        # the bed rests on the floor of the moving host: shifted with it and moving with it
+        state.x[2] += initial_displacement_m
+        state.v[2] = initial_velocity_m_s
     ws = compiled.KernelWorkspace(scene, state)
-    compiled.set_up(scene, state, ws)
+    compiled._call(coupled.set_up_coupled, *ws.state_arrays(state)[:-1],
+                   float(initial_displacement_m), float(initial_velocity_m_s))
     n = state.n_spheres if k else 0
     omega = scene.omega_rad_s
     weight = k * n * scene.mass_kg * scene.gravity_m_s2
