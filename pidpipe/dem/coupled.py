@@ -95,7 +95,7 @@ def set_up_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall
 @njit(cache=True, error_model="numpy")
 def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
                 normals, offsets, host_p, host_state, step0, n_cycles, steps_per_cycle,
-                reference, out_cycle, out_terms, out_energy, out_host_energy):
+                reference, out_cycle, out_cell, out_terms, out_energy, out_host_energy):
     """Advance the host and every cell by ``n_cycles * steps_per_cycle`` steps from ``step0``.
 
     Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
@@ -111,6 +111,8 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
         R cos, R sin of Omega t (R = -S (F_w - W_0), the spheres' force on the host), divided
         by steps_per_cycle / 2 (the first Fourier coefficients, m and N); the largest |x|, m;
         the scaled work exchanged with the walls, the sum of |S W_w| step by step, J
+    out_cell : (2, nb, n_cycles) per cell, the sums of F_w,b cos and F_w,b sin of Omega t divided
+        by steps_per_cycle / 2 (the first Fourier coefficients of its walls' z force, N)
     out_terms : (4, 2, nb, n_cycles) the spheres' dissipation by term and contact type, J
     out_energy : (8, nb, n_cycles + 1) the spheres' energies at the cycle boundaries (kernel
         rows E_*)
@@ -132,6 +134,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     for b in range(n_batch):
         fz_prev[b] = wall_fz[b]
     acc = np.zeros((4, 2, n_batch))
+    cell_fz = np.zeros(n_batch)
     force_prev = force0 * math.cos(omega * (step0 * dt))
     harmonic = 2.0 / steps_per_cycle
     for b in range(n_batch):
@@ -165,6 +168,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
                 fz = out[0]
                 wall_work += (fz_prev[b] + fz) * (0.5 * dx)
                 fz_prev[b] = fz
+                cell_fz[b] = fz
                 fz_sum += fz
                 acc[0, 0, b] += out[1]
                 acc[1, 0, b] += out[2]
@@ -191,6 +195,9 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             rc += reaction * cos_p
             rs += reaction * sin_p
             peak = max(peak, abs(x_new))
+            for b in range(n_batch):
+                out_cell[0, b, cycle] += cell_fz[b] * cos_p
+                out_cell[1, b, cycle] += cell_fz[b] * sin_p
             xh, uh, ah = x_new, u_new, a_new
             force_prev = force_new
             # the spheres' second half kick
@@ -212,6 +219,8 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
         out_cycle[C_X_PEAK, cycle] = peak
         out_cycle[C_WALL_GROSS, cycle] = gross_w
         for b in range(n_batch):
+            out_cell[0, b, cycle] *= harmonic
+            out_cell[1, b, cycle] *= harmonic
             for kind in range(2):
                 s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
                 damping = dt * s3

@@ -81,7 +81,9 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
         Delta E), ``displacement`` (complex first harmonic X, m, x = Re(X e^{i Omega t})),
         ``reaction`` (complex first harmonic of the spheres' force on the host, N),
         ``peak_displacement_m``; and ``host_energy_j``, ``particle_energy_j`` (S E_p) at the
-        n_cycles + 1 boundaries; ``steps_per_cycle``, ``timestep_s``, ``n_cells``,
+        n_cycles + 1 boundaries; per cell, shape (k, n_cycles): ``cell_wall_force`` (complex first
+        harmonic of its walls' z force, N; the weight is a constant and drops out) and
+        ``cell_dissipation_j`` (its spheres' dissipation, unscaled, J); ``steps_per_cycle``, ``timestep_s``, ``n_cells``,
         ``n_spheres``, ``cpu_s``.
     """
     started = time.process_time()
@@ -114,15 +116,18 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
     host_state = np.array([initial_displacement_m, initial_velocity_m_s, accel0])
     n_cycles = int(n_cycles)
     per_cycle = np.zeros((coupled.N_CYCLE_ROWS, n_cycles))
+    per_cell = np.zeros((2, k, n_cycles))
     terms = np.zeros((4, 2, k, n_cycles))
     energy = np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1))
     host_energy = np.zeros(n_cycles + 1)
     reference = np.ascontiguousarray(centre_of_mass_height(state)) if k else np.zeros(0)
     compiled._call(coupled.run_coupled, *ws.state_arrays(state)[:-1], params, host_state,
-                   0, n_cycles, int(scene.steps_per_cycle), reference, per_cycle, terms, energy,
-                   host_energy)
+                   0, n_cycles, int(scene.steps_per_cycle), reference, per_cycle, per_cell, terms,
+                   energy, host_energy)
     state.step += n_cycles * scene.steps_per_cycle
     return cycle_series(per_cycle, terms, energy, host_energy, host.cell_scale) | dict(
+        cell_wall_force=per_cell[0] - 1j * per_cell[1],
+        cell_dissipation_j=terms.sum(axis=(0, 1)),
         steps_per_cycle=int(scene.steps_per_cycle), timestep_s=float(scene.timestep_s),
         n_cells=k, n_spheres=n, freq_hz=float(scene.freq_hz),
         cpu_s=time.process_time() - started)

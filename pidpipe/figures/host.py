@@ -3,7 +3,8 @@
 One column per force level. Top row: the host's displacement amplitude |X| (um) for the coupled
 host (markers, error bars one standard error over the measured cycles; hollow where the point
 was not steady) and the two dashpot models (lines, shaded one standard deviation over the
-redrawn surrogates; dotted where the surrogate was read at the edge of its domain). Bottom row:
+redrawn surrogates; crosses where the host's Gamma lay outside the surrogate's G range and C_eq
+was read at its edge). Bottom row:
 the loss factor eta (energy dissipated per cycle over 2 pi x the peak strain energy) of each.
 """
 
@@ -74,5 +75,7 @@ def _draw(ax, curve: pd.DataFrame, column: str, unc: str, scale: float, colour: 
     clipped = curve["surrogate_clipped"].astype(bool).to_numpy()
     ax.plot(f, y, "-", color=colour, label=label, lw=1.6)
     if clipped.any():
-        ax.plot(f[clipped], y[clipped], ":", color="black", lw=0, marker=".", ms=4)
+        ax.plot(f[clipped], y[clipped], color=colour, lw=0, marker="x", ms=5,
+                label=("dashpot: Γ outside the surrogate's G range, C_eq at its edge"
+                       if model == "equivalent" else "_nolegend_"))
     ax.fill_between(f, y - e, y + e, color=colour, alpha=0.2, lw=0)

@@ -15,7 +15,8 @@ total sphere mass m_p = n_c n m_sphere.
   airborne all the time. Where the coupled peak lies between the two, the spheres' effective
   mass (measured by the coupled run as m_eff, the in-phase part of their force) is what shifts it.
 
-Uncertainties: the coupled host's are standard errors over its measured cycles; the dashpot
+Uncertainties: the coupled host's are standard errors over its measured cycles and over its k
+cells' packings (:func:`pidpipe.loop.coupled_sweep.packing_spread`) in quadrature; the dashpot
 model's are the standard deviation over surrogates refitted to the C_eq table redrawn within its
 SEMs (none when the table has no SEMs or ``surrogate_draws`` is 0).
 """
@@ -144,6 +145,8 @@ def curves_table(settings: HostSettings, load: HostLoad, coupled: list[dict],
             rows.append({"model": "coupled", "level": level, "force_n": force,
                          "freq_hz": row["freq_hz"],
                          "amplitude_m": row["amplitude_m"], "amplitude_unc_m": row["amplitude_sem_m"],
+                         "amplitude_unc_cycles_m": row["amplitude_sem_cycles_m"],
+                         "amplitude_unc_packings_m": row["amplitude_sem_packings_m"],
                          "accel_g": row["accel_g"], "accel_unc_g": row["accel_sem_g"],
                          "loss_factor": row["loss_factor"], "loss_factor_unc": row["loss_factor_sem"],
                          "ceq_ns_m": row["c_eff_ns_m"], "ceq_unc_ns_m": row["c_eff_sem_ns_m"],
@@ -157,7 +160,8 @@ def curves_table(settings: HostSettings, load: HostLoad, coupled: list[dict],
             for i, row in enumerate(central):
                 rows.append({"model": model, "level": level, "force_n": force,
                              "freq_hz": row["freq_hz"], "amplitude_m": row["amplitude_m"],
-                             "amplitude_unc_m": sd[0, i], "accel_g": row["accel_g"],
+                             "amplitude_unc_m": sd[0, i], "amplitude_unc_cycles_m": np.nan,
+                             "amplitude_unc_packings_m": np.nan, "accel_g": row["accel_g"],
                              "accel_unc_g": sd[1, i], "loss_factor": row["loss_factor"],
                              "loss_factor_unc": sd[3, i], "ceq_ns_m": row["ceq_ns_m"],
                              "ceq_unc_ns_m": sd[2, i], "m_eff_kg": added, "m_eff_unc_kg": 0.0,

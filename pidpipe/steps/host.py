@@ -42,30 +42,29 @@ def chosen_design(results: list, settings: HostSettings):
                       "rerun `snakemake optimum` with this config")
 
 
-def check_host(config: dict, surrogate_path: str, designs_path: str, curves_path: str,
-               summary_path: str, meta_path: str, folder: str, workers: int = 1) -> None:
-    """Run the host-coupled check of one design and write its tables.
+def prepare_host(config: dict, surrogate_path: str, designs_path: str, folder: str,
+                 workers: int = 1):
+    """Everything the check runs on: the settings, the design's load, the surrogate and its
+    draws, and the k representative packings (poured into ``folder``, or reused).
 
-    Parameters
-    ----------
-    config : dict
-        :func:`host_params` of the validated config.
-    surrogate_path, designs_path : path
-        ``results/surrogate.json`` and ``results/optimum.json``.
-    curves_path, summary_path, meta_path : path
-        The curves (CSV), the per-level summary (CSV) and the parameters and costs (JSON).
-    folder : path
-        Where the host's packings are poured and kept.
-    workers : int
-        LIGGGHTS pours and coupled runs at a time.
+    Returns
+    -------
+    settings : HostSettings
+    load : pidpipe.loop.host.HostLoad
+    surrogate : pidpipe.design.surrogate.Surrogate
+    draws : iterable of Surrogate
+        Refitted to the redrawn C_eq table (empty without SEMs or with ``surrogate_draws`` 0).
+    packings : ndarray, shape (k, n, 3)
+        Sphere centres of the k cells, m.
+    extra : dict
+        ``packings`` (seeds, pile heights, pour CPU) and ``design`` for the run's record.
     """
     from pidpipe.cell.packing import check_packing
-    from pidpipe.cell.scene import CellScene
     from pidpipe.design.bootstrap import has_sem, resampled_surrogates
     from pidpipe.design.optimisation_files import read_results_json
     from pidpipe.design.surrogate import load_surrogate
     from pidpipe.liggghts.pour import replicate_packings
-    from pidpipe.loop.host import HostLoad, host_check
+    from pidpipe.loop.host import HostLoad
     from pidpipe.physics.contact import sphere_mass
 
     settings = HostSettings.from_config(config)
@@ -90,17 +89,43 @@ def check_host(config: dict, surrogate_path: str, designs_path: str, curves_path
         draws = resampled_surrogates(surrogate, settings.surrogate_draws, settings.seed)
     elif settings.surrogate_draws:
         logger.warning("host: the C_eq table has no SEMs: the dashpot model has no uncertainty")
-    logger.info("host: %s design of %s: %d cells x %d spheres (fill %.4g %%, design %.4g %%)",
-                settings.design, settings.environment.name, load.n_cells, n_spheres,
-                load.fill_pct, design.fill_pct)
+    logger.info("host: %s design of %s: %d cells x %d spheres (fill %.4g %%, design %.4g %%; "
+                "%d spheres against the budget's %d)", settings.design, settings.environment.name,
+                load.n_cells, n_spheres, load.fill_pct, design.fill_pct, load.n_cells * n_spheres,
+                result.budget.n_spheres)
+    extra = {"packings": {"seeds": [p.seed for p in packings],
+                          "pile_height_m": [p.pile_height_m for p in packings],
+                          "pour_cpu_s": pour_cpu},
+             "design": {"kind": settings.design, "budget_spheres": result.budget.n_spheres,
+                        **vars(design)}}
+    return settings, load, surrogate, draws, np.stack([p.centres() for p in packings]), extra
+
+
+def check_host(config: dict, surrogate_path: str, designs_path: str, curves_path: str,
+               summary_path: str, meta_path: str, folder: str, workers: int = 1) -> None:
+    """Run the host-coupled check of one design and write its tables.
+
+    Parameters
+    ----------
+    config : dict
+        :func:`host_params` of the validated config.
+    surrogate_path, designs_path : path
+        ``results/surrogate.json`` and ``results/optimum.json``.
+    curves_path, summary_path, meta_path : path
+        The curves (CSV), the per-level summary (CSV) and the parameters and costs (JSON).
+    folder : path
+        Where the host's packings are poured and kept.
+    workers : int
+        LIGGGHTS pours and coupled runs at a time.
+    """
+    from pidpipe.cell.scene import CellScene
+    from pidpipe.loop.host import host_check
+
+    settings, load, surrogate, draws, packings, extra = prepare_host(
+        config, surrogate_path, designs_path, folder, workers)
     curves, summary, meta = host_check(settings, CellScene.from_config(config), load, surrogate,
-                                       draws, np.stack([p.centres() for p in packings]), workers)
-    meta["packings"] = {"seeds": [p.seed for p in packings],
-                        "pile_height_m": [p.pile_height_m for p in packings],
-                        "pour_cpu_s": pour_cpu}
-    meta["design"] = {"kind": settings.design, **vars(design)}
-    meta["fidelity"] = dict(config["fidelity"])
-    meta["engine"] = _engine()
+                                       draws, packings, workers)
+    meta.update(extra, fidelity=dict(config["fidelity"]), engine=_engine())
     for line in summary_lines(summary):
         logger.info("host: %s", line)
     write_atomic(curves_path, lambda tmp: curves.to_csv(tmp, index=False))
