@@ -12,8 +12,14 @@ from matplotlib.ticker import NullFormatter
 
 from pidpipe.figures.common import CEQ_LABEL, RC_PARAMS, save_figure
 
-#: Marker of each design kind.
+#: Marker of each design kind: band_mean large and open, so that a case the peak design shares
+#: (drawn small and filled) shows inside it.
 _MARKERS = {"band_mean": "o", "peak": "s"}
+_MARKER_STYLE = {"band_mean": dict(ms=9, mfc="none", mew=1.2), "peak": dict(ms=4)}
+_COLOURS = {"band_mean": "C0", "peak": "C2"}
+
+#: Log axes only when the values span more than this ratio (else few decade ticks show).
+LOG_SPAN = 20.0
 
 
 def plot_verify(table: pd.DataFrame, stem: str | Path, flag_z: float = 2.0) -> list[Path]:
@@ -38,8 +44,9 @@ def plot_verify(table: pd.DataFrame, stem: str | Path, flag_z: float = 2.0) -> l
     Notes
     -----
     Error bars are +- one standard uncertainty (DEM: its SEM; surrogate: u_s). Cases where the
-    surrogate is off (|z| > flag_z) are drawn red and open. Log axes; bars that would reach
-    below zero are cut at the axis; the diagonal is equality.
+    surrogate is off (|z| > flag_z) are drawn red. Log axes when the values span more than
+    :data:`LOG_SPAN` (bars that would reach below zero cut at the axis), else linear from 0;
+    the diagonal is equality.
     """
     import matplotlib
 
@@ -55,22 +62,25 @@ def plot_verify(table: pd.DataFrame, stem: str | Path, flag_z: float = 2.0) -> l
                     continue
                 x, y = rows["ceq_coupon_surrogate_ns_m"], rows["ceq_coupon_dem_ns_m"]
                 xerr, yerr = rows["surrogate_u_ns_m"].fillna(0.0), rows["ceq_coupon_dem_sem_ns_m"]
-                style = (dict(color="C3", mfc="none") if off
-                         else dict(color="C0" if design == "band_mean" else "C2"))
+                style = dict(color="C3" if off else _COLOURS.get(design, "C1"),
+                             **_MARKER_STYLE.get(design, {}))
                 label = f"{design}" + (f", off (|z| > {flag_z:g})" if off else "") + f" ({len(rows)})"
                 ax.errorbar(x, y, xerr=[np.minimum(xerr, 0.999 * x), xerr],
-                            yerr=[np.minimum(yerr, 0.999 * y), yerr], capsize=2, ms=5, lw=0.8,
+                            yerr=[np.minimum(yerr, 0.999 * y), yerr], capsize=2, lw=0.8,
                             fmt=_MARKERS.get(design, "^"), label=label, **style)
         if not shown.empty:
             values = shown[["ceq_coupon_surrogate_ns_m", "ceq_coupon_dem_ns_m"]].to_numpy(dtype=float)
             span = np.array([values.min() / 1.5, values.max() * 1.5])
+            if values.max() / values.min() > LOG_SPAN:
+                ax.set_xscale("log")
+                ax.set_yscale("log")
+                for axis in (ax.xaxis, ax.yaxis):
+                    axis.set_minor_formatter(NullFormatter())
+            else:
+                span = np.array([0.0, values.max() * 1.3])
             ax.plot(span, span, color="0.6", lw=0.8, zorder=0, label="equal")
             ax.set_xlim(*span)
             ax.set_ylim(*span)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        for axis in (ax.xaxis, ax.yaxis):
-            axis.set_minor_formatter(NullFormatter())
         engines = ", ".join(sorted(set(table["engine"].dropna().astype(str)) - {""})) or "?"
         ax.set_xlabel(f"surrogate: coupon {CEQ_LABEL}")
         ax.set_ylabel(f"DEM ({engines}): coupon {CEQ_LABEL}")
