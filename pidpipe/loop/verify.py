@@ -264,6 +264,47 @@ def record_columns(record: dict) -> dict:
     }
 
 
+#: The record's ``fidelity`` keys a verifying case must share with the configured settings.
+FIDELITY_KEYS: tuple[str, ...] = ("engine", "timestep_rayleigh_fraction_config",
+                                  "youngs_modulus_scale", "measured_cycles", "rotation", "friction",
+                                  "cells_per_run")
+
+
+def stale_records(records: dict[str, dict], fidelity: dict,
+                  target_relative_sem: float | None) -> list[str]:
+    """The cases whose record was not made with the configured settings, each with the reason.
+
+    Snakemake reruns a case whose settings changed, except in the run in which the checkpoint
+    that plans the cases ran too (it does not check the provenance of jobs it adds after a
+    checkpoint): this catches a record left from before the change.
+
+    Parameters
+    ----------
+    records : dict of str -> dict
+        Case id -> record.
+    fidelity : dict
+        The expected values of :data:`FIDELITY_KEYS` (a record's ``fidelity`` block).
+    target_relative_sem : float or None
+        The campaign's target (None: pilot only, the record has no ``target``).
+
+    Returns
+    -------
+    list of str
+        ``"<case>: <key> <recorded> (configured <value>)"``, empty when every record is current.
+    """
+    stale = []
+    for case_id, record in records.items():
+        made = record.get("fidelity") or {}
+        for key in FIDELITY_KEYS:
+            if made.get(key) != fidelity[key]:
+                stale.append(f"{case_id}: {key} {made.get(key)!r} (configured {fidelity[key]!r})")
+        target = (record.get("target") or {}).get("relative_sem")
+        if record.get("status") != "failed" and target != target_relative_sem:
+            stale.append(f"{case_id}: target_relative_sem {target!r} (configured "
+                         f"{target_relative_sem!r})")
+    return stale
+
+
 def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.DataFrame,
             flag_z: float) -> pd.DataFrame:
     """The verification table: each design point's DEM case against the surrogate.

@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from pidpipe.config.settings import Fill, VerifySettings
+from pidpipe.errors import PidpipeError
 from pidpipe.files import write_atomic
 
 logger = logging.getLogger("pidpipe.campaign")
@@ -55,17 +56,43 @@ def verify_case_ids(points_path: str) -> list[str]:
     return unique_case_ids(read_points(points_path))
 
 
-def check_verify_packings(points_path: str, packing_paths: list[str], report_path: str,
-                          cells_per_run: int) -> None:
-    """Check the verifying cases' packings as the campaign's (:func:`pidpipe.steps.packings.check_packings`)."""
+def check_verify_packing(packing_path: str, report_path: str) -> None:
+    """Check one verifying case's packing as the campaign's are checked
+    (:func:`pidpipe.steps.packings.check_packings`); write its one-row report (TSV).
+
+    Raises
+    ------
+    PackingError
+        The packing does not fit or has not settled.
+    """
     from pidpipe.steps.packings import check_packings
 
-    check_packings(packing_paths, verify_case_ids(points_path), report_path,
-                   cells_per_run=cells_per_run)
+    check_packings([packing_path], [], report_path)
+
+
+def configured_fidelity(config: dict) -> tuple[dict, float | None]:
+    """What a verifying case's record must show (:func:`pidpipe.loop.verify.stale_records`):
+    its ``fidelity`` values, and the target relative SEM.
+
+    Parameters
+    ----------
+    config : dict
+        The verifying cases' case-stage config (``steps.params.verify_case_config``).
+    """
+    from pidpipe.config.settings import ShakeSettings
+
+    settings = ShakeSettings.from_config(config)
+    fidelity, sampling = settings.fidelity, settings.sampling
+    return ({"engine": settings.engine,
+             "timestep_rayleigh_fraction_config": fidelity.timestep_rayleigh_fraction,
+             "youngs_modulus_scale": fidelity.youngs_modulus_scale,
+             "measured_cycles": sampling.measured_cycles, "rotation": fidelity.rotation,
+             "friction": fidelity.friction, "cells_per_run": sampling.cells_per_run},
+            sampling.target_relative_sem)
 
 
 def compare_designs(points_path: str, record_paths: list[str], surrogate_path: str,
-                    verify: dict, table_path: str, plot_path: str) -> None:
+                    verify: dict, case_config: dict, table_path: str, plot_path: str) -> None:
     """Compare every verifying case with the surrogate; write results/verify.csv and its figure.
 
     Parameters
@@ -78,17 +105,33 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
         The campaign's surrogate (``results/surrogate.json``).
     verify : dict
         ``{"verify": {...}}``: :meth:`pidpipe.config.settings.VerifySettings.as_params`.
+    case_config : dict
+        The verifying cases' case-stage config: every record must have been made with it.
     table_path, plot_path : path
         The table (CSV, atomically) and the parity figure (``.png``; a ``.pdf`` next to it).
+
+    Raises
+    ------
+    PidpipeError
+        A record was made with other settings than the configured ones (left from before a
+        change, in the run whose checkpoint replanned the cases): the message names them and
+        the fix, running verify again.
     """
     from pidpipe.design.records import read_record
     from pidpipe.design.surrogate import load_surrogate
     from pidpipe.figures.verify import plot_verify
-    from pidpipe.loop.verify import compare, off_lines, surrogate_uncertainty
+    from pidpipe.loop.verify import compare, off_lines, stale_records, surrogate_uncertainty
 
     settings = VerifySettings.from_config(verify)
     points = read_points(points_path)
     records = {record["case_id"]: record for record in map(read_record, record_paths)}
+    stale = stale_records(records, *configured_fidelity(case_config))
+    if stale:
+        raise PidpipeError(f"{len(stale)} setting(s) of verifying case records differ from the "
+                           "config (records from before a change; Snakemake reruns them in the "
+                           "next run, as it does not check cases it planned after a checkpoint "
+                           "in the same run): run `snakemake --cores 2 verify` again; "
+                           + "; ".join(stale))
     surrogate = load_surrogate(surrogate_path)
     predictions = surrogate_uncertainty(surrogate, points, settings.surrogate_draws,
                                         settings.surrogate_seed)

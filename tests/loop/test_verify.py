@@ -18,6 +18,7 @@ from pidpipe.loop.verify import (
     off_lines,
     plan_points,
     poured_fill,
+    stale_records,
     surrogate_uncertainty,
     unique_case_ids,
     z_combined,
@@ -170,3 +171,16 @@ def test_compare_refuses_a_missing_or_mismatched_record():
     records[ids[0]] = record(ids[1], 50.0, 1.0)
     with pytest.raises(PidpipeError, match="is of case"):
         compare(points, records, predictions, 2.0)
+
+
+def test_a_record_made_with_other_settings_is_named():
+    fidelity = {"engine": "dem", "timestep_rayleigh_fraction_config": 0.2, "youngs_modulus_scale": 1.0,
+                "measured_cycles": 10, "rotation": True, "friction": True, "cells_per_run": 1}
+    current = record("f600Hz_G6_r47.619pct_rep0", 50.0, 1.0)
+    current["fidelity"].update(fidelity)
+    old = record("f900Hz_G6_r47.619pct_rep0", 50.0, 1.0)
+    old["fidelity"].update(fidelity, engine="liggghts")
+    assert stale_records({"a": current}, fidelity, None) == []
+    stale = stale_records({"a": current, "b": old}, fidelity, 0.05)
+    assert stale == ["a: target_relative_sem None (configured 0.05)", "b: engine 'liggghts' (configured 'dem')",
+                     "b: target_relative_sem None (configured 0.05)"]

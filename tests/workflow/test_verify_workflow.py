@@ -40,8 +40,11 @@ def test_every_band_mean_and_peak_design_is_checked_at_its_corners_and_centre(ve
     # each distinct case was shaken once, on packings checked as the campaign's
     records = sorted(p.stem for p in (workdir / "results" / "verify" / "cases").glob("*.json"))
     assert records == sorted(set(table["case_id"]))
-    check = pd.read_csv(workdir / "results" / "verify" / "packings" / "check.tsv", sep="\t")
-    assert (check["verdict"] == "ok").all()
+    packings = sorted((workdir / "results" / "verify" / "packings").glob("*.json"))
+    assert {p.stem.split("_rep")[0] for p in packings} == {f"r{fill:g}pct" for fill in table["fill_pct"]}
+    for packing in packings:
+        check = pd.read_csv(packing.with_suffix(".check.tsv"), sep="\t")
+        assert list(check["verdict"]) == ["ok"]
 
 
 def test_the_table_is_physically_sensible_and_z_follows_from_its_values(verified):
@@ -73,3 +76,23 @@ def test_the_log_and_the_figure_say_what_was_found(verified):
     assert f"{len(table)} design point(s), {table['case_id'].nunique()} distinct case(s)" in log
     assert log.count("surrogate off:") == int(table["surrogate_off"].sum())
     assert (workdir / "results" / "verify.png").stat().st_size > 10_000
+
+
+def test_a_new_plan_runs_only_its_new_cases_and_refreshes_the_table_in_the_same_run(verified):
+    """Another band replans the cases (the checkpoint reruns): the new corners are shaken, the
+    shared ones are not, and verify.csv follows in the same run."""
+    workdir, _ = verified
+    before = {p.name: p.stat().st_mtime_ns for p in (workdir / "results" / "verify" / "cases").glob("*.json")}
+    write_config(workdir, engine="dem", verify={"engine": "dem", "surrogate_draws": 20},
+                 environments=[{"name": "600-1000 Hz, 6-9 g", "freq_hz": [600, 1000], "accel_g": [6, 9]}])
+    run = snakemake(workdir, "verify")
+    assert run.returncode == 0, run.stdout[-5000:]
+    assert "simulate_case " not in run.stdout                   # the campaign is not rerun
+    table = pd.read_csv(workdir / "results" / "verify.csv")
+    points = pd.read_csv(workdir / "results" / "verify" / "points.csv")
+    assert list(table["case_id"]) == list(points["case_id"])
+    assert set(table["environment"]) == {"600-1000 Hz, 6-9 g"} and 1000.0 in set(table["freq_hz"])
+    after = {p.name: p.stat().st_mtime_ns for p in (workdir / "results" / "verify" / "cases").glob("*.json")}
+    kept = [name for name in before if f"{name[:-5]}" in set(table["case_id"])]
+    assert len(kept) >= 2                                        # the f = 600 Hz corners stay
+    assert all(after[name] == before[name] for name in kept)   # shared cases not shaken again

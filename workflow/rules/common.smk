@@ -194,18 +194,16 @@ def get_verify_records(wildcards):
     return [f"results/verify/cases/{case_id}.json" for case_id in _verify_case_ids()]
 
 
-def get_verify_packings(wildcards):
-    """Every packing the verifying cases shake."""
-    ids = sorted({packing_id for case_id in _verify_case_ids()
-                  for packing_id in case_packing_ids(config, CaseSpec.from_id(case_id))})
-    return [f"results/verify/packings/{packing_id}.json" for packing_id in ids]
-
-
 def get_verify_case_packings(wildcards):
     """The packings a simulate_verify_case job shakes, one per cell of its run."""
     case = CaseSpec.from_id(get_case_id(wildcards))
     return [f"results/verify/packings/{packing_id}.json"
             for packing_id in case_packing_ids(config, case)]
+
+
+def get_verify_case_packing_checks(wildcards):
+    """The check of each packing a simulate_verify_case job shakes."""
+    return [path.replace(".json", ".check.tsv") for path in get_verify_case_packings(wildcards)]
 
 
 def get_verify_case_runtime_min(wildcards, attempt):

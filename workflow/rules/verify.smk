@@ -5,7 +5,8 @@
 #                                surrogate: results/verify.csv and results/verify.png
 # The cases follow from the designs, so plan_verify is a checkpoint; a point two designs share
 # is one case. Their packings are poured and checked apart from the campaign's
-# (results/verify/packings/), with the same seeds and settings.
+# (results/verify/packings/), with the same seeds and settings. No ancient()/update() here:
+# with them Snakemake 9.27 dropped the verify job in a run whose checkpoint changed the plan.
 
 
 checkpoint plan_verify:
@@ -36,24 +37,23 @@ rule pour_verify_packing:
         "../scripts/pour_packing.py"
 
 
-rule check_verify_packings:
+# Each packing is checked on its own (as check_packings checks the campaign's), so that a
+# new plan adds checks for its new packings and leaves the cases already shaken alone.
+rule check_verify_packing:
     input:
-        points="results/verify/points.csv",
-        packings=get_verify_packings,
+        "results/verify/packings/r{fill}pct_rep{replicate}.json",
     output:
-        update("results/verify/packings/check.tsv"),
-    params:
-        cells_per_run=get_cells_per_run(),
+        "results/verify/packings/r{fill}pct_rep{replicate}.check.tsv",
     log:
-        "logs/verify/check_packings.log",
+        "logs/verify/check_packing/r{fill}pct_rep{replicate}.log",
     script:
-        "../scripts/check_verify_packings.py"
+        "../scripts/check_verify_packing.py"
 
 
 rule simulate_verify_case:
     input:
         packings=get_verify_case_packings,
-        checked=ancient("results/verify/packings/check.tsv"),
+        checked=get_verify_case_packing_checks,
     output:
         record="results/verify/cases/" + CASE_PATTERN + ".json",
     params:
@@ -85,6 +85,7 @@ rule verify:
                     category="5. Verification"),
     params:
         verify=get_verify_params(),
+        case_config=get_verify_case_config(),
     log:
         "logs/verify/verify.log",
     script:

@@ -10,6 +10,7 @@ run_step(
     record_paths=list(snakemake.input.records),
     surrogate_path=snakemake.input.surrogate,
     verify=snakemake.params.verify,
+    case_config=snakemake.params.case_config,
     table_path=snakemake.output.table,
     plot_path=snakemake.output.plot,
 )
