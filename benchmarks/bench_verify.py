@@ -85,7 +85,7 @@ def main() -> None:
             target = config.setdefault(section, {}) if section else config
             target[key] = yaml.safe_load(value)
         (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-        command = [snakemake, "--cores", str(args.cores), "--rerun-triggers", "mtime", "verify"]
+        command = [snakemake, "verify", "--cores", str(args.cores), "--rerun-triggers", "mtime"]
         dry = subprocess.run(command + ["--dry-run"], cwd=work, text=True, stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, check=False)
         other = planned_rules(dry.stdout) - VERIFY_RULES
@@ -94,11 +94,12 @@ def main() -> None:
                      f"{'failed' if dry.returncode else 'plans ' + ', '.join(sorted(other))}; "
                      "nothing measured\n" + dry.stdout[-3000:])
         cpu0, start = children_cpu_s(), time.perf_counter()
-        done = subprocess.run(command + ["--quiet", "rules"], cwd=work, check=False,
-                              stdout=subprocess.DEVNULL)
+        done = subprocess.run(command + ["--quiet", "rules"], cwd=work, check=False, text=True,
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
         wall, cpu = time.perf_counter() - start, children_cpu_s() - cpu0
         if done.returncode != 0:
-            sys.exit(f"snakemake verify failed (exit {done.returncode}); nothing recorded")
+            sys.exit(f"snakemake verify failed (exit {done.returncode}); nothing recorded\n"
+                     + done.stdout[-3000:])
         table = pd.read_csv(work / "results" / "verify.csv")
         pours = [pd.read_csv(p, sep="\t") for p in
                  (work / "results" / "benchmarks" / "verify" / "pour_packing").glob("*.tsv")]
@@ -107,7 +108,11 @@ def main() -> None:
     engine = ", ".join(sorted(set(cases["engine"].astype(str))))
     rel_sem = cases["ceq_coupon_dem_sem_ns_m"] / cases["ceq_coupon_dem_ns_m"]
     target = config.get("fidelity", {}).get("target_relative_sem", "schema default")
-    lines = [f"verify on {campaign} {' '.join(args.set)} (engine {engine}, target relative SEM "
+    grid = config.get("grid", {})
+    lines = [f"Campaign {campaign}: grid {len(grid.get('freq_hz', []))} f x "
+             f"{len(grid.get('accel_g', []))} G x {len(grid.get('fill_pct', []))} fills, campaign "
+             f"engine {config.get('engine', 'liggghts')}, fidelity {config.get('fidelity', {})}.", "",
+             f"verify {' '.join(args.set)} (engine {engine}, target relative SEM "
              f"{target}): {len(table)} design points of "
              f"{table.groupby(['environment', 'design']).ngroups} designs in "
              f"{table['environment'].nunique()} environments, {len(cases)} distinct cases; wall "
