@@ -9,9 +9,13 @@ uniform in their bands). The design's fill r_d stands in general for a fractiona
 spheres per cell; a cell holds whole spheres, so the DEM pours n = round half up of
 (full_cell_spheres x r_d / 100), as for every fill of the campaign, and the case's fill is that
 count's, 100 n / full_cell_spheres, rounded to 1e-3 % (which gives n back). The surrogate is
-evaluated at that fill: the one the DEM shakes. Points that two designs share (the same fill, f
-and G, e.g. a peak and a band_mean design at one fill) are one case, run once
-(:func:`unique_case_ids`); the table keeps a row per design and point.
+read at the design's own fill r_d: its fill axis is the grid's nominal fill, each grid fill
+having been poured the same way (r = 50 % of 21 spheres is 11 spheres), so r_d is where the
+surrogate says what the design gives, and the DEM case is what a cell filled at r_d holds; the
+rounding to whole spheres between grid points is part of what is checked. Points that two
+designs share (the same sphere count, f and G, e.g. a peak and a band_mean design at one fill)
+are one case, run once (:func:`unique_case_ids`); the table keeps a row per design and point,
+each with the surrogate at its own design's fill.
 
 The surrogate's standard uncertainty (:func:`surrogate_uncertainty`)
 --------------------------------------------------------------------
@@ -183,7 +187,8 @@ def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
     ----------
     surrogate : pidpipe.design.surrogate.Surrogate
     points : pandas.DataFrame
-        With ``freq_hz`` (Hz), ``accel_g`` (g) and ``fill_pct`` (%), m rows.
+        With ``freq_hz`` (Hz), ``accel_g`` (g) and ``design_fill_pct`` (%, where the surrogate
+        is read), m rows.
     draws, seed : int
         Refits on the table redrawn within its SEMs, and their seed (0 draws: no noise part).
 
@@ -196,10 +201,11 @@ def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
     """
     from pidpipe.design.bootstrap import has_sem, loo_rel_error, resampled_surrogates
 
-    freq, accel, fill = (points[c].to_numpy(dtype=float) for c in ("freq_hz", "accel_g", "fill_pct"))
+    freq, accel, fill = (points[c].to_numpy(dtype=float)
+                         for c in ("freq_hz", "accel_g", "design_fill_pct"))
     lo, hi = surrogate.domain["fill_pct"]
     held = np.clip(fill, lo, hi)
-    notes = [f"surrogate at the fill domain's edge {h:g} % (the DEM's fill is {r:g} %)"
+    notes = [f"surrogate at the fill domain's edge {h:g} % (the design's fill is {r:g} %)"
              if h != r else "" for r, h in zip(fill, held)]
     prediction = np.asarray(surrogate.predict(freq, accel, held), dtype=float).reshape(-1)
     if draws > 0 and has_sem(surrogate):

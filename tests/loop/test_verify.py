@@ -118,11 +118,16 @@ def test_the_surrogates_uncertainty_holds_the_tables_noise_and_the_interpolation
     assert no_draws["note"].str.contains("without its noise part").all()
 
 
-def test_a_fill_below_the_domain_is_held_at_its_edge_and_said():
+def test_the_surrogate_is_read_at_the_designs_fill_and_a_fill_off_its_domain_is_held_and_said():
     surrogate = fit_surrogate(grid_table())
-    points = plan_points([design("A", "band_mean", 25.5)], 21)    # 5 spheres = 23.8 %
+    points = plan_points([design("A", "band_mean", 44.0)], 21)    # 9 spheres = 42.857 %
     u = surrogate_uncertainty(surrogate, points, draws=0, seed=1)
-    assert u["note"].str.contains("edge 25 %").all()
+    np.testing.assert_allclose(u["ceq_coupon_surrogate_ns_m"],
+                               surrogate.predict(points["freq_hz"], points["accel_g"], 44.0))
+    assert not u["note"].str.contains("edge").any()
+    points = plan_points([design("A", "band_mean", 24.0)], 21)    # an optimum from elsewhere
+    u = surrogate_uncertainty(surrogate, points, draws=0, seed=1)
+    assert u["note"].str.contains("edge 25 % (the design's fill is 24 %)", regex=False).all()
 
 
 def record(case_id, value, sem, status="ok", flags=()):
@@ -140,7 +145,8 @@ def test_compare_flags_a_surrogate_that_is_off_and_keeps_a_shared_case_in_each_d
     designs = [design("A", "peak", 44.0), design("A", "band_mean", 44.5)]   # both 9 spheres
     points = plan_points(designs, 21)
     predictions = surrogate_uncertainty(surrogate, points, draws=20, seed=3)
-    truth = dict(zip(points["case_id"], predictions["ceq_coupon_surrogate_ns_m"]))
+    peak = points["design"] == "peak"            # the DEM gives what the surrogate says at peak's fill
+    truth = dict(zip(points["case_id"][peak], predictions["ceq_coupon_surrogate_ns_m"][peak]))
     ids = unique_case_ids(points)
     records = {c: record(c, truth[c], 0.02 * truth[c]) for c in ids}
     off_case = ids[2]
@@ -148,12 +154,18 @@ def test_compare_flags_a_surrogate_that_is_off_and_keeps_a_shared_case_in_each_d
                                status="flagged", flags=["not_steady"])
     table = compare(points, records, predictions, flag_z=2.0)
     assert list(table.columns) == list(VERIFY_COLUMNS) and len(table) == 10
-    assert table.loc[table["case_id"] != off_case, "z_combined"].abs().max() < 1e-9
+    assert table.loc[peak & (table["case_id"] != off_case), "z_combined"].abs().max() < 1e-9
+    # band_mean reads the surrogate at its own fill (44.5 %): the same case, another prediction
+    band = table[~peak]
+    assert np.all(band["ceq_coupon_surrogate_ns_m"].to_numpy()
+                  > table.loc[peak, "ceq_coupon_surrogate_ns_m"].to_numpy())
+    np.testing.assert_allclose(band["z_combined"], band["difference_ns_m"]
+                               / np.hypot(band["ceq_coupon_dem_sem_ns_m"], band["surrogate_u_ns_m"]))
     off = table[table["surrogate_off"]]
     assert set(off["case_id"]) == {off_case} and set(off["design"]) == {"peak", "band_mean"}
-    expected = (2.0 * truth[off_case]
-                / np.hypot(0.02 * truth[off_case], off["surrogate_u_ns_m"].iloc[0]))
-    assert off["z_combined"].iloc[0] == pytest.approx(expected)
+    off_peak = off[off["design"] == "peak"].iloc[0]
+    expected = 2.0 * truth[off_case] / np.hypot(0.02 * truth[off_case], off_peak["surrogate_u_ns_m"])
+    assert off_peak["z_combined"] == pytest.approx(expected)
     assert off["note"].str.contains("surrogate off by").all()
     assert off["note"].str.contains("DEM case flagged (not_steady)", regex=False).all()
     assert (table["engine"] == "dem").all() and (table["dem_cpu_time_s"] == 1.5).all()
