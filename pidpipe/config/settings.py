@@ -272,6 +272,48 @@ class Environment:
 
 
 @dataclass(frozen=True)
+class VerifySettings:
+    """How the designs are checked by DEM (``verify``; ``snakemake --cores 2 verify``).
+
+    Attributes
+    ----------
+    engine : str
+        ``liggghts`` or ``dem``: the solver of the verifying cases.
+    flag_z : float
+        A case is flagged when |DEM - surrogate| exceeds this many combined standard
+        uncertainties.
+    surrogate_draws : int
+        Refits of the surrogate on the table redrawn within its SEMs (0: no noise part).
+    surrogate_seed : int
+        Seed of the redrawn tables.
+    """
+
+    engine: str = "liggghts"
+    flag_z: float = 2.0
+    surrogate_draws: int = 200
+    surrogate_seed: int = 13
+
+    def __post_init__(self) -> None:
+        if self.engine not in ("liggghts", "dem"):
+            raise ConfigError(f"verify.engine = {self.engine!r} is not allowed: liggghts or dem")
+        if not self.flag_z > 0 or self.surrogate_draws < 0 or self.surrogate_seed < 0:
+            raise ConfigError(f"verify needs flag_z > 0, surrogate_draws >= 0 and surrogate_seed "
+                              f">= 0; got {self}")
+
+    @classmethod
+    def from_config(cls, config: dict) -> "VerifySettings":
+        section = config["verify"]
+        return cls(str(section["engine"]), float(section["flag_z"]),
+                   int(section["surrogate_draws"]), int(section["surrogate_seed"]))
+
+    def as_params(self) -> dict:
+        """The plain dict a rule's ``params`` carries (and :meth:`from_config` reads back)."""
+        return {"verify": {"engine": self.engine, "flag_z": self.flag_z,
+                           "surrogate_draws": self.surrogate_draws,
+                           "surrogate_seed": self.surrogate_seed}}
+
+
+@dataclass(frozen=True)
 class ShakeSettings:
     """Everything a case's shaking run reads: the scene's inputs, the sampling and the engine.
 

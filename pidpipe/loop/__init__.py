@@ -1,4 +1,7 @@
-"""Closing the loop: the C_eq model checked on a vibrating host.
+"""Closing the loop: the designs checked by DEM, and the C_eq model checked on a vibrating host.
+
+:mod:`.verify` shakes each environment's band_mean and peak design at its fill on the band's
+corners and centre and compares the DEM's C_eq with the surrogate's prediction.
 
 A single-degree-of-freedom host carries a design's filled cells and is forced around its
 resonance; :mod:`.coupled_sweep` runs it coupled to the compiled DEM
