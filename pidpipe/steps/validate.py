@@ -207,3 +207,9 @@ def collect_grid_check(liggghts_paths: list[str], dem_paths: list[str], table_pa
     if summary["disagreeing"]:
         logger.warning("cases ok in both solvers that differ by more than %g combined SEM: %s",
                        AGREEMENT_SEMS, ", ".join(summary["disagreeing"]))
+    logger.info("paired cell by cell (same packings, the packing spread cancels): %d of the %d "
+                "cases ok in both agree within %g SEM of the difference", summary["paired_agree_both_ok"],
+                summary["both_ok"], AGREEMENT_SEMS)
+    if summary["paired_disagreeing"]:
+        logger.warning("cases ok in both solvers whose cells differ by more than %g SEM of the "
+                       "paired difference: %s", AGREEMENT_SEMS, ", ".join(summary["paired_disagreeing"]))

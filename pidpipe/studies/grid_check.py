@@ -5,6 +5,14 @@ One row a case (:data:`GRID_COLUMNS`): both C_eq per cell with their standard er
 ratio, ``z_combined`` = (C_eq,dem - C_eq,liggghts) / sqrt(SEM_l^2 + SEM_d^2), whether they agree
 within :data:`AGREEMENT_SEMS` combined SEM, each solver's status and flags, and what each cost
 (CPU seconds). A case either solver flagged or failed is kept, marked, and counted apart.
+
+Both solvers shake the same packings, so the spread between packings, which is most of each
+case's SEM once it has several cells, is common to both and cancels in their difference: the
+combined-SEM test is then blind to a systematic difference smaller than that spread. The
+**paired** columns compare the solvers cell by cell (cells matched by packing seed):
+``paired_rel_diff`` = mean over cells of (C_dem - C_liggghts) / mean C_liggghts, and
+``z_paired`` = mean difference / its standard error over the cells (which carries the two
+solvers' cycle noise only); ``paired_agree`` is |z_paired| <= :data:`AGREEMENT_SEMS`.
 """
 
 from __future__ import annotations
@@ -29,7 +37,39 @@ GRID_COLUMNS: tuple[str, ...] = (
     "liggghts_measured_cycles", "dem_measured_cycles",
     "liggghts_transient_cycles", "dem_transient_cycles",
     "liggghts_cpu_time_s", "dem_cpu_time_s",
+    "paired_cells", "paired_rel_diff", "paired_rel_diff_sem", "z_paired", "paired_agree",
 )
+
+
+def paired_difference(liggghts: dict, dem: dict) -> dict:
+    """The cell-by-cell difference of two records of a case (cells matched by packing seed).
+
+    Returns
+    -------
+    dict
+        ``paired_cells`` (cells in both), ``paired_rel_diff`` and ``paired_rel_diff_sem`` (the
+        mean difference C_dem - C_liggghts and its standard error over the cells, both over the
+        mean LIGGGHTS C_eq of those cells), ``z_paired`` and ``paired_agree``; NaN (and False)
+        with fewer than 2 cells in both.
+    """
+    def by_seed(record: dict) -> dict:
+        return {int(cell["seed"]): float(cell["ceq_cell_ns_m"]) for cell in record.get("cells") or []
+                if "seed" in cell and math.isfinite(float(cell.get("ceq_cell_ns_m", math.nan)))}
+
+    left, right = by_seed(liggghts), by_seed(dem)
+    seeds = sorted(set(left) & set(right))
+    nan = math.nan
+    if len(seeds) < 2:
+        return {"paired_cells": len(seeds), "paired_rel_diff": nan, "paired_rel_diff_sem": nan,
+                "z_paired": nan, "paired_agree": False}
+    lig = np.array([left[s] for s in seeds])
+    diff = np.array([right[s] for s in seeds]) - lig
+    scale = abs(lig.mean())
+    sem = diff.std(ddof=1) / math.sqrt(diff.size)
+    z = diff.mean() / sem if sem > 0 else nan
+    return {"paired_cells": len(seeds), "paired_rel_diff": float(diff.mean() / scale),
+            "paired_rel_diff_sem": float(sem / scale), "z_paired": float(z),
+            "paired_agree": bool(np.isfinite(z) and abs(z) <= AGREEMENT_SEMS)}
 
 
 def _cpu_time(record: dict) -> float:
@@ -80,12 +120,13 @@ def grid_row(liggghts: dict, dem: dict) -> dict:
         "dem_transient_cycles": int(fid_d.get("transient_cycles", -1)),
         "liggghts_cpu_time_s": _cpu_time(liggghts),
         "dem_cpu_time_s": _cpu_time(dem),
+        **paired_difference(liggghts, dem),
     }
 
 
 def grid_table(pairs: list[tuple[dict, dict]]) -> pd.DataFrame:
     """The grid check of (LIGGGHTS record, DEM record) pairs, sorted by (f, G, r)."""
-    table = pd.DataFrame([grid_row(l, d) for l, d in pairs], columns=list(GRID_COLUMNS))
+    table = pd.DataFrame([grid_row(lig, dem) for lig, dem in pairs], columns=list(GRID_COLUMNS))
     return table.sort_values(["freq_hz", "accel_g", "fill_pct", "case_id"]).reset_index(drop=True)
 
 
@@ -97,7 +138,8 @@ def grid_summary(table: pd.DataFrame) -> dict:
     dict
         ``cases``, ``both_ok``, ``agree_both_ok`` (of the both-ok cases, how many agree within
         :data:`AGREEMENT_SEMS` combined SEM), ``agree_all``, ``disagreeing`` (case ids of
-        both-ok cases that do not agree), ``liggghts_cpu_time_s``, ``dem_cpu_time_s``.
+        both-ok cases that do not agree), ``paired_agree_both_ok`` and ``paired_disagreeing``
+        (the same by the paired test), ``liggghts_cpu_time_s``, ``dem_cpu_time_s``.
     """
     both = table[table["both_ok"]]
     return {
@@ -105,6 +147,8 @@ def grid_summary(table: pd.DataFrame) -> dict:
         "both_ok": int(len(both)),
         "agree_both_ok": int(both["agree"].sum()),
         "agree_all": int(table["agree"].sum()),
+        "paired_agree_both_ok": int(both["paired_agree"].sum()),
+        "paired_disagreeing": both.loc[~both["paired_agree"], "case_id"].tolist(),
         "disagreeing": both.loc[~both["agree"], "case_id"].tolist(),
         "liggghts_cpu_time_s": float(table["liggghts_cpu_time_s"].sum()),
         "dem_cpu_time_s": float(table["dem_cpu_time_s"].sum()),
