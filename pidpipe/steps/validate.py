@@ -69,7 +69,7 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
         The campaign's record is not a LIGGGHTS record (a campaign run with ``engine: dem``
         has nothing to be checked against), or the packings are not the ones it shook.
     """
-    from pidpipe.cell.packing import load_packing
+    from pidpipe.cell.packing import load_packing, pour_engines
     from pidpipe.dem.case import run_dem_case
     from pidpipe.design.records import read_record
     from pidpipe.liggghts.shake import write_record
@@ -82,9 +82,12 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
                            "liggghts) with the DEM")
     packings = [load_packing(path) for path in packing_paths]
     seeds = liggghts.get("fidelity", {}).get("seeds")
-    if seeds is not None and seeds != [p.seed for p in packings]:
-        raise PidpipeError(f"{liggghts_record_path} shook packings of seeds {seeds}, not "
-                           f"{[p.seed for p in packings]}: rerun the campaign first")
+    poured_by = liggghts.get("fidelity", {}).get("pour_engine")
+    if (seeds is not None and seeds != [p.seed for p in packings]) or (
+            poured_by is not None and poured_by != pour_engines(packings)):
+        raise PidpipeError(f"{liggghts_record_path} shook packings of seeds {seeds} poured by "
+                           f"{poured_by or 'liggghts'}, not {[p.seed for p in packings]} poured by "
+                           f"{pour_engines(packings)}: rerun the campaign first")
     case = CaseSpec.from_id(liggghts["case_id"])
     record = run_to_target(ShakeSettings.from_config(config), case, packings,
                            Path(record_path).parent, run=run_dem_case)
