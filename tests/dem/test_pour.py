@@ -94,7 +94,7 @@ def test_the_dem_pile_is_the_liggghts_pile_in_bulk(settings, fill, tmp_path):
     difference (both engines draw from one distribution of piles), and below a quarter of a
     sphere radius (0.31 mm), under a third of what one more sphere adds to the pile (about
     1.1 mm per sphere at every default fill), so finer than the fill itself is resolved.
-    benchmarks/bench_pour.py compares 10 seeds of every default fill.
+    benchmarks/bench_pour.py compares 8 seeds of every default fill.
     """
     dem, lig = [], []
     for replicate in COMPARED[fill]:
