@@ -7,6 +7,8 @@
 #   snakemake --report report.html                       # figures and tables with captions
 #   snakemake --cores 2 validate                         # every case checked by the compiled DEM (grid.csv)
 #   snakemake --cores 2 validate_chosen                  # validation.cases afresh in LIGGGHTS and the DEM
+#   snakemake --cores 2 host                             # the design on a vibrating host: coupled DEM vs C_eq dashpot
+#   snakemake --cores 2 verify                           # each band_mean and peak design checked by DEM (verify.csv)
 #
 # The config is validated (workflow/schemas/config.schema.yaml, pidpipe.config) before any job;
 # an invalid value stops the run with one message naming the key. Rules live in
@@ -63,6 +65,8 @@ include: "workflow/rules/figures.smk"
 include: "workflow/rules/validate.smk"
 include: "workflow/rules/fidelity.smk"
 include: "workflow/rules/scene.smk"
+include: "workflow/rules/host.smk"
+include: "workflow/rules/verify.smk"
 
 
 rule all:

@@ -4,7 +4,8 @@ Runs ``snakemake --cores 2`` on a config (default: the repository's config.yaml,
 reference campaign) in a scratch copy of the workflow, then sums the per-job benchmark files
 and the case records: wall and engine CPU time per frequency (every run a case made, its
 target's included), every case's relative SEM, how many cases reached their target (and how
-many were not chased: C_eq not resolved from zero), the cells and cycles they ended with, and
+many were not chased: C_eq not resolved from zero, or a pilot flagged not_steady or
+not_stationary), the cells and cycles they ended with, and
 the pours (the grid's and those poured on demand into the shared pool).
 
 Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
@@ -84,7 +85,7 @@ def main() -> None:
              f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
              f"case status counts: {cases['status'].value_counts().to_dict()}; target "
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
-             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero); relative SEM "
+             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot failing a steady-state check); relative SEM "
              f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
              f"{pool} packings poured on demand into the pool; LIGGGHTS CPU of the pool's pours "
              f"{pour_cpu:.0f} s", "",
@@ -116,8 +117,9 @@ def case_row(record: dict) -> dict:
             "cpu_s": target.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))),
             "rel_sem": abs(sem / value) if value else float("nan"),
             "reached": bool(target.get("reached", False)),
-            "not_chased": bool(target) and len(target.get("runs", [])) == 1 and not target.get("reached")
-                          and "not_resolved" in record.get("flags", []),
+            "not_chased": bool(target.get("not_chased")) or (
+                bool(target) and len(target.get("runs", [])) == 1 and not target.get("reached")
+                and "not_resolved" in record.get("flags", [])),
             "cells": int(target.get("cells", record.get("fidelity", {}).get("cells_per_run", 1))),
             "cycles": int(target.get("measured_cycles", record.get("n_cycles", 0)))}
 

@@ -54,7 +54,7 @@ def shake(cell_scene: CellScene, freq_hz: float, accel_g: float, positions, velo
     scene = dem_scene(cell_scene, freq_hz, [accel_g] * positions.shape[0])
     scene, state, ws = start(scene, positions, velocities, spins)
     ledgers = run_cycles(scene, state, ws, cycles)
-    ends = [np.moveaxis(array, 0, 2).copy() for array in (state.x, state.v, state.w)]
+    ends = [np.moveaxis(array, 0, 2).copy() for array in (state.x, state.v, state.omega)]
     return ledgers, *ends, time.process_time() - cpu
 
 

@@ -22,6 +22,7 @@ from pidpipe.config.derived import (
     budget_spheres,
     full_cell_spheres,
     pair_properties,
+    panel_mass_kg,
     panel_n_cells,
     spheres_at_fill,
 )
@@ -285,6 +286,48 @@ class Environment:
 
 
 @dataclass(frozen=True)
+class VerifySettings:
+    """How the designs are checked by DEM (``verify``; ``snakemake --cores 2 verify``).
+
+    Attributes
+    ----------
+    engine : str
+        ``liggghts`` or ``dem``: the solver of the verifying cases.
+    flag_z : float
+        A case is flagged when |DEM - surrogate| exceeds this many combined standard
+        uncertainties.
+    surrogate_draws : int
+        Refits of the surrogate on the table redrawn within its SEMs (0: no noise part).
+    surrogate_seed : int
+        Seed of the redrawn tables.
+    """
+
+    engine: str = "liggghts"
+    flag_z: float = 2.0
+    surrogate_draws: int = 200
+    surrogate_seed: int = 13
+
+    def __post_init__(self) -> None:
+        if self.engine not in ("liggghts", "dem"):
+            raise ConfigError(f"verify.engine = {self.engine!r} is not allowed: liggghts or dem")
+        if not self.flag_z > 0 or self.surrogate_draws < 0 or self.surrogate_seed < 0:
+            raise ConfigError(f"verify needs flag_z > 0, surrogate_draws >= 0 and surrogate_seed "
+                              f">= 0; got {self}")
+
+    @classmethod
+    def from_config(cls, config: dict) -> "VerifySettings":
+        section = config["verify"]
+        return cls(str(section["engine"]), float(section["flag_z"]),
+                   int(section["surrogate_draws"]), int(section["surrogate_seed"]))
+
+    def as_params(self) -> dict:
+        """The plain dict a rule's ``params`` carries (and :meth:`from_config` reads back)."""
+        return {"verify": {"engine": self.engine, "flag_z": self.flag_z,
+                           "surrogate_draws": self.surrogate_draws,
+                           "surrogate_seed": self.surrogate_seed}}
+
+
+@dataclass(frozen=True)
 class ShakeSettings:
     """Everything a case's shaking run reads: the scene's inputs, the sampling and the engine.
 
@@ -328,3 +371,96 @@ class PourSettings:
         return cls(Geometry.from_config(config), Materials.from_config(config),
                    Fidelity.from_config(config), Fill.from_config(config),
                    Pouring.from_config(config))
+
+
+@dataclass(frozen=True)
+class HostSettings:
+    """The host-coupled check of the C_eq model (``host``), with its nulls resolved.
+
+    Attributes
+    ----------
+    environment_index : int
+        Which of ``environments`` the host serves.
+    environment : Environment
+        That environment.
+    design : str
+        ``band_mean``, ``peak`` or ``worst_case``: which of its designs fills the cells.
+    mass_kg : float
+        m_h, the host's mass without the spheres, kg (``host.mass_kg``, else the panel's mass).
+    natural_freq_hz : float
+        The bare host's natural frequency, Hz (else the band centre).
+    damping_ratio : float
+        zeta_h = c_h / (2 sqrt(k_h m_h)).
+    force_n : tuple of float
+        Force amplitudes F_0, N, one sweep each.
+    freq_span_fraction : float
+    freq_points : int
+        The sweep: ``freq_points`` frequencies evenly over (1 -/+ span) x natural_freq_hz.
+    cells : int
+        Representative cells k.
+    transient_cycles, measured_cycles, sem_block_cycles : int
+    start : str
+        ``equivalent`` or ``rest``: the host's state at t = 0.
+    surrogate_draws, seed : int
+    agreement_fraction : float
+    """
+
+    environment_index: int
+    environment: Environment
+    design: str
+    mass_kg: float
+    natural_freq_hz: float
+    damping_ratio: float
+    force_n: tuple[float, ...]
+    freq_span_fraction: float
+    freq_points: int
+    cells: int
+    transient_cycles: int
+    measured_cycles: int
+    sem_block_cycles: int
+    start: str
+    surrogate_draws: int
+    seed: int
+    agreement_fraction: float
+
+    @classmethod
+    def from_config(cls, config: dict) -> "HostSettings":
+        host = config["host"]
+        environments = Environment.list_from_config(config)
+        index = int(host["environment"])
+        if index >= len(environments):
+            raise ConfigError(f"config key host.environment = {index} is not allowed: there are "
+                              f"{len(environments)} environment(s), indices 0 .. "
+                              f"{len(environments) - 1}")
+        environment = environments[index]
+        mass = host["mass_kg"]
+        natural = host["natural_freq_hz"]
+        return cls(
+            environment_index=index, environment=environment, design=str(host["design"]),
+            mass_kg=float(panel_mass_kg(config) if mass is None else mass),
+            natural_freq_hz=float(0.5 * sum(environment.freq_hz) if natural is None else natural),
+            damping_ratio=float(host["damping_ratio"]),
+            force_n=tuple(float(f) for f in host["force_n"]),
+            freq_span_fraction=float(host["freq_span_fraction"]),
+            freq_points=int(host["freq_points"]), cells=int(host["cells"]),
+            transient_cycles=int(host["transient_cycles"]),
+            measured_cycles=int(host["measured_cycles"]),
+            sem_block_cycles=int(host["sem_block_cycles"]), start=str(host["start"]),
+            surrogate_draws=int(host["surrogate_draws"]), seed=int(host["seed"]),
+            agreement_fraction=float(host["agreement_fraction"]))
+
+    @property
+    def stiffness_n_m(self) -> float:
+        """k_h = m_h (2 pi f_n)^2, N/m."""
+        return self.mass_kg * (2.0 * math.pi * self.natural_freq_hz) ** 2
+
+    @property
+    def damping_ns_m(self) -> float:
+        """c_h = 2 zeta_h sqrt(k_h m_h), N s/m."""
+        return 2.0 * self.damping_ratio * math.sqrt(self.stiffness_n_m * self.mass_kg)
+
+    def frequencies_hz(self) -> list[float]:
+        """The sweep's forcing frequencies, Hz."""
+        low = 1.0 - self.freq_span_fraction
+        step = 2.0 * self.freq_span_fraction / (self.freq_points - 1)
+        return [self.natural_freq_hz * (low + i * step) for i in range(self.freq_points)]

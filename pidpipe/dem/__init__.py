@@ -11,7 +11,9 @@ readable reference (:mod:`.reference`), which the tests compare it with.
 
 Modules: :mod:`.scene` (materials, contact laws, timestep), :mod:`.walls` (wall motion),
 :mod:`.state` (the state arrays), :mod:`.kernel` and :mod:`.compiled` (the compiled loop),
-:mod:`.run` (cycles and the case record, on the kernel), :mod:`.from_scene` (its scene from the
+:mod:`.run` (cycles and the case record, on the kernel), :mod:`.coupled` and :mod:`.host_drive`
+(the cells riding on a vibrating host, fed back to it: the host-coupled check of
+:mod:`pidpipe.loop`), :mod:`.from_scene` (its scene from the
 shared :class:`pidpipe.cell.scene.CellScene`); the reference: :mod:`.contacts` (forces and energy
 terms), :mod:`.integrator` (velocity Verlet), :mod:`.energy` (energies and the balance, used by both), :mod:`.reference`.
 """

@@ -211,3 +211,13 @@ def read_record(path: str | os.PathLike) -> dict:
     if not isinstance(record, dict) or "case_id" not in record or "status" not in record:
         raise ParseError(f"case record {path} is not a case record (no case_id or status)")
     return record
+
+
+def record_cpu_time_s(record: dict) -> float:
+    """A record's CPU seconds: all stages of an adaptive run (``target``), else its one run."""
+    from pidpipe.measurement.adaptive import run_cpu_time_s
+
+    target = record.get("target") or {}
+    if "cpu_time_s" in target:
+        return float(target["cpu_time_s"])
+    return run_cpu_time_s(record)

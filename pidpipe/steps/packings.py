@@ -73,7 +73,7 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
         except PackingError as exc:
             verdict = "refused"
             cases = cases_of.get(packing_id, [])
-            problems.append(f"{exc} [{len(cases)} case(s): {', '.join(cases)}]")
+            problems.append(f"{exc} [{len(cases)} case(s): {', '.join(cases)}]" if cases else str(exc))
         rows.append({"packing_id": packing_id, "fill_pct": packing.fill_pct,
                      "n_spheres": packing.n_spheres, "seed": packing.seed,
                      "pour_engine": packing.pour_engine,

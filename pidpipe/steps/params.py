@@ -10,8 +10,8 @@ from pathlib import Path
 
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
 from pidpipe.config import validate_config
-from pidpipe.config.settings import Budget
-from pidpipe.config.stages import sorted_keys
+from pidpipe.config.settings import Budget, VerifySettings
+from pidpipe.config.stages import sorted_keys, stage_config
 from pidpipe.errors import ConfigError
 
 #: Snakemake wildcard constraint of a number in a case id (as written by ``format_number``).
@@ -90,3 +90,13 @@ def map_uncertainty_params(config: dict) -> dict:
     the optimum's draws, which the same seed redraws identically."""
     bootstrap = config["optimisation"]["bootstrap"]
     return {"draws": min(int(bootstrap["draws"]), MAP_DRAWS), "seed": int(bootstrap["seed"])}
+
+
+def verify_params(config: dict) -> dict:
+    """The verify section as a rule's params (:meth:`VerifySettings.as_params`)."""
+    return VerifySettings.from_config(config).as_params()
+
+
+def verify_case_config(config: dict) -> dict:
+    """The case stage's config of a verifying case: the campaign's, shaken by ``verify.engine``."""
+    return stage_config({**config, "engine": VerifySettings.from_config(config).engine}, "case")

@@ -6,6 +6,7 @@ campaign's LIGGGHTS records (``snakemake validate``), and chosen cases run afres
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
 from pidpipe.cases import CaseSpec
@@ -48,56 +49,138 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
 
 
 def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: list[str],
-                        record_path: str) -> dict:
-    """Shake a campaign case in the compiled DEM on the packings its LIGGGHTS record shook.
+                        record_path: str, packing_pool: str | None = None) -> dict:
+    """Shake a campaign case in the compiled DEM on the cells its LIGGGHTS record shook.
+
+    A case measured to a target made several runs (``target.runs``): the DEM replays the runs
+    that make the record (``used``), each on the same packings (by seed: the pilot's from
+    ``packing_paths``, the others from the pool the campaign poured them into) for the same
+    measured cycles, and combines them as the campaign does
+    (:func:`pidpipe.measurement.adaptive.combine_runs`): a paired check, cell for cell. A case
+    without a target is shaken as configured (its pilot).
 
     Parameters
     ----------
     config : dict
         The case stage's part of the config (:func:`pidpipe.config.stages.stage_config`),
-        parsed here; its fidelity (adaptive cycles, cells per run) is the LIGGGHTS campaign's.
+        parsed here; its fidelity is the LIGGGHTS campaign's.
     liggghts_record_path : path
         The campaign's record of the case (``results/cases/<case>.json``).
     packing_paths : list of path
-        The case's packings, one per cell.
+        The case's pilot packings, one per cell of its first run.
     record_path : path
         The DEM record to write (JSON, atomically).
+    packing_pool : path, optional
+        The folder of the packings poured for the cases' targets (``results/packings/pool``).
 
     Raises
     ------
     PidpipeError
         The campaign's record is not a LIGGGHTS record (a campaign run with ``engine: dem``
-        has nothing to be checked against), or the packings are not the ones it shook.
+        has nothing to be checked against), or a packing it shook is missing or not the one it
+        shook.
     """
     from pidpipe.cell.packing import load_packing, pour_engines
-    from pidpipe.dem.case import run_dem_case
     from pidpipe.design.records import read_record
     from pidpipe.liggghts.shake import write_record
-    from pidpipe.measurement.adaptive import run_to_target
 
     liggghts = read_record(liggghts_record_path)
     if liggghts.get("solver") != "liggghts":
         raise PidpipeError(f"{liggghts_record_path} was made by {liggghts.get('solver')!r}, not "
                            "LIGGGHTS: `snakemake validate` checks a LIGGGHTS campaign (engine: "
                            "liggghts) with the DEM")
-    packings = [load_packing(path) for path in packing_paths]
-    seeds = liggghts.get("fidelity", {}).get("seeds")
-    poured_by = liggghts.get("fidelity", {}).get("pour_engine")
-    if (seeds is not None and seeds != [p.seed for p in packings]) or (
-            poured_by is not None and poured_by != pour_engines(packings)):
-        raise PidpipeError(f"{liggghts_record_path} shook packings of seeds {seeds} poured by "
-                           f"{poured_by or 'liggghts'}, not {[p.seed for p in packings]} poured by "
-                           f"{pour_engines(packings)}: rerun the campaign first")
+    settings = ShakeSettings.from_config(config)
     case = CaseSpec.from_id(liggghts["case_id"])
-    record = run_to_target(ShakeSettings.from_config(config), case, packings,
-                           Path(record_path).parent, run=run_dem_case)
+    pilot = [load_packing(path) for path in packing_paths]
+    poured_by = liggghts.get("fidelity", {}).get("pour_engine")
+    if poured_by is not None and poured_by != pour_engines(pilot):
+        raise PidpipeError(f"{liggghts_record_path} shook packings poured by {poured_by}, but "
+                           f"{', '.join(str(p) for p in packing_paths)} were poured by "
+                           f"{pour_engines(pilot)}: rerun the campaign first")
+    runs = [run for run in (liggghts.get("target") or {}).get("runs", []) if run.get("used")]
+    if not runs:
+        seeds = liggghts.get("fidelity", {}).get("seeds")
+        runs = [{"run": 0, "seeds": seeds if seeds is not None else [p.seed for p in pilot],
+                 "measured_cycles": settings.sampling.measured_cycles}]
+    by_seed = {packing.seed: packing for packing in pilot}
+    plan = [(run, [_packing_of_seed(seed, by_seed, case, config, packing_pool,
+                                    liggghts_record_path) for seed in run["seeds"]])
+            for run in runs]
+    record = replay_runs(settings, case, plan, Path(record_path).parent)
     write_record(record, record_path)
-    logger.info("case %s: C_eq(cell) DEM %.4g +- %.2g, LIGGGHTS %.4g +- %.2g N*s/m; DEM %s%s",
-                case.case_id, record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"],
-                liggghts.get("ceq_cell_ns_m", float("nan")),
-                liggghts.get("ceq_cell_sem_ns_m", float("nan")), record["status"],
-                f" ({', '.join(record['flags'])})" if record["flags"] else "")
+    logger.info("case %s: C_eq(cell) DEM %.4g +- %.2g, LIGGGHTS %.4g +- %.2g N*s/m over the same "
+                "%d cells; DEM %s%s", case.case_id, record["ceq_cell_ns_m"],
+                record["ceq_cell_sem_ns_m"], liggghts.get("ceq_cell_ns_m", float("nan")),
+                liggghts.get("ceq_cell_sem_ns_m", float("nan")), len(record.get("cells") or [1]),
+                record["status"], f" ({', '.join(record['flags'])})" if record["flags"] else "")
     return record
+
+
+def replay_runs(settings: ShakeSettings, case: CaseSpec, plan: list[tuple[dict, list]],
+                workdir: str | Path) -> dict:
+    """The DEM's record of a case made of the given runs, combined as the campaign combines them.
+
+    Parameters
+    ----------
+    settings : ShakeSettings
+    case : CaseSpec
+    plan : list of (run, packings)
+        Each run's entry (``measured_cycles``) and its packings, one per cell.
+    workdir : path
+        Unused by the DEM (it writes no files).
+
+    Returns
+    -------
+    dict
+        The combined record; ``target`` = {``replay_of`` the runs replayed (run index, seeds,
+        measured cycles, CPU s), ``cells``, ``measured_cycles``, ``cpu_time_s``}.
+    """
+    import time
+
+    from pidpipe.dem.case import run_dem_case
+    from pidpipe.measurement.adaptive import combine_runs, run_cpu_time_s
+
+    records, replayed = [], []
+    started = time.perf_counter()
+    for run, packings in plan:
+        staged = replace(settings, sampling=replace(settings.sampling,
+                                                    measured_cycles=int(run["measured_cycles"]),
+                                                    target_relative_sem=None))
+        record = run_dem_case(staged, case, packings, workdir)
+        records.append(record)
+        replayed.append({"run": int(run.get("run", len(replayed))),
+                         "seeds": [int(p.seed) for p in packings],
+                         "measured_cycles": int(run["measured_cycles"]),
+                         "cpu_time_s": run_cpu_time_s(record)})
+    combined = combine_runs(records, case.freq_hz, case.accel_g, settings.coupon_n_cells)
+    combined["target"] = {"replay_of": replayed,
+                          "cells": sum(len(packings) for _, packings in plan),
+                          "measured_cycles": max(int(run["measured_cycles"]) for run, _ in plan),
+                          "cpu_time_s": sum(entry["cpu_time_s"] for entry in replayed),
+                          "wall_time_s": time.perf_counter() - started}
+    return combined
+
+
+def _packing_of_seed(seed: int, pilot: dict, case: CaseSpec, config: dict,
+                     packing_pool: str | None, source: str):
+    """The packing of ``seed``: one of the pilot's, or the pool's of the case's fill."""
+    from pidpipe.cases import format_number
+    from pidpipe.cell.packing import load_packing
+    from pidpipe.config.settings import PourSettings
+
+    if seed in pilot:
+        return pilot[seed]
+    index = int(seed) - PourSettings.from_config(config).pouring.seed
+    name = f"r{format_number(case.fill_pct)}pct_rep{index}.json"
+    path = Path(packing_pool) / name if packing_pool else None
+    if path is None or not path.is_file():
+        raise PidpipeError(f"{source} shook a packing of seed {seed} ({name}), which is not in "
+                           f"the packing pool {packing_pool}: rerun the campaign first")
+    packing = load_packing(path)
+    if packing.seed != seed:
+        raise PidpipeError(f"{path} has seed {packing.seed}, but {source} shook seed {seed}: "
+                           "rerun the campaign first")
+    return packing
 
 
 def collect_grid_check(liggghts_paths: list[str], dem_paths: list[str], table_path: str,
@@ -117,7 +200,7 @@ def collect_grid_check(liggghts_paths: list[str], dem_paths: list[str], table_pa
     from pidpipe.figures.parity import plot_parity
     from pidpipe.studies.grid_check import AGREEMENT_SEMS, grid_summary, grid_table
 
-    pairs = [(read_record(l), read_record(d)) for l, d in zip(liggghts_paths, dem_paths)]
+    pairs = [(read_record(lig), read_record(dem)) for lig, dem in zip(liggghts_paths, dem_paths)]
     table = grid_table(pairs)
     write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
     plot_parity(table, Path(plot_path).with_suffix(""), coverage=AGREEMENT_SEMS)

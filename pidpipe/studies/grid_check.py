@@ -14,6 +14,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from pidpipe.design.records import record_cpu_time_s
+
 AGREEMENT_SEMS = 2.0
 """Two solvers agree on a case when their C_eq differ by at most this many combined SEM."""
 
@@ -31,12 +33,8 @@ GRID_COLUMNS: tuple[str, ...] = (
 
 
 def _cpu_time(record: dict) -> float:
-    """A record's CPU seconds: all stages of an adaptive run, else its one run."""
-    target = record.get("target") or {}
-    if "cpu_time_s" in target:
-        return float(target["cpu_time_s"])
-    engine = record.get("engine") or {}
-    return float(engine.get("cpu_time_s", engine.get("liggghts_cpu_time_s", math.nan)))
+    """A record's CPU seconds (:func:`pidpipe.design.records.record_cpu_time_s`)."""
+    return record_cpu_time_s(record)
 
 
 def grid_row(liggghts: dict, dem: dict) -> dict:

@@ -134,7 +134,28 @@ def test_a_ceq_not_resolved_from_zero_is_not_chased():
     record = measure_to_target(pilot, 40, 0.05, LIMITS, zero_mean, packings_from(0), costs(5.0),
                                lambda records: combine_runs(records, F_HZ, G, 441))
     assert len(record["target"]["runs"]) == 1 and record["target"]["steps"] == []
+    assert record["target"]["not_chased"] == "C_eq is not resolved from zero"
     assert "not_resolved" in record["flags"] or "negative_dissipation" in record["flags"]
+
+
+@pytest.mark.parametrize("flag", ["not_steady", "not_stationary"])
+def test_a_pilot_that_fails_a_steady_state_check_is_not_chased(flag):
+    engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)   # would need more cells
+
+    def unsteady(packings, cycles, index):
+        record = engine.shake(packings, cycles, index)
+        return {**record, "status": "flagged", "flags": [flag]}
+
+    pilot = [FakePacking(100 + j) for j in range(7)]
+    record = measure_to_target(pilot, 40, 0.05, LIMITS, unsteady, packings_from(100), costs(5.0),
+                               lambda records: combine_runs(records, F_HZ, G, 441))
+    target = record["target"]
+    assert len(engine.calls) == 1 and len(target["runs"]) == 1 and target["steps"] == []
+    assert target["not_chased"] == f"the pilot is flagged {flag}"
+    assert not target["reached"] and flag in record["flags"] and record["status"] == "flagged"
+    # the same engine without the flag does chase it
+    chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, LIMITS)
+    assert len(chased["target"]["runs"]) > 1 and chased["target"]["not_chased"] is None
 
 
 def test_without_a_target_the_pilot_is_the_case():

@@ -6,9 +6,10 @@ from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
                                   environment_params, inspected_cases, map_uncertainty_params,
-                                  optimisation_params)
+                                  optimisation_params, verify_case_config, verify_params)
+from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
-from pidpipe.config.stages import stage_config
+from pidpipe.config.stages import sorted_keys, stage_config
 from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
@@ -164,6 +165,52 @@ def get_validation_packings():
     fills = sorted({CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
                     for c in config["validation"]["cases"]})
     return [f"results/packings/{packing_id}.json" for packing_id in fills]
+
+
+# The designs' check by DEM (workflow/rules/verify.smk): its cases follow from the designs
+# (checkpoint plan_verify).
+
+
+def get_fill_config():
+    """The config's fill section (spheres per full cell)."""
+    return sorted_keys(config["fill"])
+
+
+def get_verify_params():
+    return verify_params(config)
+
+
+def get_verify_case_config():
+    """The case stage's config of a verifying case (engine: verify.engine)."""
+    return verify_case_config(config)
+
+
+def _verify_case_ids():
+    return verify_case_ids(checkpoints.plan_verify.get().output.points)
+
+
+def get_verify_records(wildcards):
+    """The record of every distinct verifying case."""
+    return [f"results/verify/cases/{case_id}.json" for case_id in _verify_case_ids()]
+
+
+def get_verify_case_packings(wildcards):
+    """The packings a simulate_verify_case job shakes, one per cell of its run."""
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    return [f"results/verify/packings/{packing_id}.json"
+            for packing_id in case_packing_ids(config, case)]
+
+
+def get_verify_case_packing_checks(wildcards):
+    """The check of each packing a simulate_verify_case job shakes."""
+    return [path.replace(".json", ".check.tsv") for path in get_verify_case_packings(wildcards)]
+
+
+def get_verify_case_runtime_min(wildcards, attempt):
+    """The time limit of a simulate_verify_case job, minutes (pidpipe.steps.resources)."""
+    case = CaseSpec.from_id(get_case_id(wildcards))
+    settings = ShakeSettings.from_config(verify_case_config(config))
+    return cluster_resources.case_runtime_min(settings, case, attempt)
 
 
 # The fidelity study (workflow/rules/fidelity.smk): planned and validated here, so that a bad

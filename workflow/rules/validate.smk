@@ -15,6 +15,7 @@ rule validate_case:
         record="results/validation/dem/" + CASE_PATTERN + ".json",
     params:
         config=get_case_config(),
+        packing_pool="results/packings/pool",
     log:
         "logs/validate_case/" + CASE_PATTERN + ".log",
     benchmark:

@@ -10,4 +10,5 @@ run_step(
     liggghts_record_path=snakemake.input.record,
     packing_paths=list(snakemake.input.packings),
     record_path=snakemake.output.record,
+    packing_pool=snakemake.params.packing_pool,
 )

@@ -1,0 +1,240 @@
+"""The compiled time loop of cells riding on a vibrating single-degree-of-freedom host.
+
+The cells' eight planes move with the host instead of a prescribed sinusoid, and the spheres'
+force on the walls is fed back to the host (two-way coupling). The spheres' physics is the
+compiled kernel's (:func:`pidpipe.dem.kernel._forces`, packed state, ledgers); only the wall
+motion differs from :func:`pidpipe.dem.kernel.run`.
+
+The host
+--------
+The host's displacement x (m) is measured from its static equilibrium with the spheres at rest
+on the floor: the spring's preload holds the weight of the host and of the spheres, so gravity
+leaves the host's equation and enters only through the spheres' deviation from their weight.
+With S = n_c / k (k integrated cells stand for n_c filled cells, which are independent),
+F_w the walls' total z force on the spheres of the k cells, and W_0 the weight of those spheres,
+
+    m_h x'' + c_h x' + k_h x = F_0 cos(Omega t) - S (F_w - W_0),
+
+and the cells' walls sit at z_w = x in the cell frame (the frame of the settled packing; the
+spheres' positions are lab-frame as in :func:`pidpipe.dem.kernel.run`, whose walls move as
+W (cos(omega t) - 1) and are likewise at rest at z = 0 at t = 0).
+
+Velocity Verlet for both, in LIGGGHTS' order: half kick and drift of spheres and host, the
+forces at the new positions with the walls at x_{n+1} and moving with the host's half-step
+velocity u_{n+1/2} (the spheres' velocities at that point are half-step values too, and it is
+exactly the displacement the walls made over the step, so the kernel's ``lag`` term is zero),
+then the second half kick. The host's damping makes its second half kick implicit in u_{n+1};
+it is linear and solved in closed form.
+
+Energy bookkeeping (exact for the host, to the kernel's O(dt^2) elastic-energy error for the
+spheres): with a the host's acceleration,
+
+    Delta E_h = W_F - D_h - S W_w,     E_h = 1/2 m_h u^2 - m_h dt^2 a^2 / 8 + 1/2 k_h x^2 - S W_0 x,
+
+W_F = sum (F_n + F_{n+1})/2 dx (the force's work), D_h = sum c_h (u_n + u_{n+1})/2 dx (the
+host's damping) and W_w = sum (F_w,n + F_w,n+1)/2 dx (the walls' work on the spheres, the
+kernel's definition), and for the spheres W_w = Delta(K^ + P + U) + D_p (:mod:`.energy`), so
+per cycle W_F = D_h + S D_p + Delta(E_h + S E_p). -S W_0 x is the spring preload's share of
+the potential energy of the spheres' weight (their own P is lab-frame).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pidpipe.dem.kernel import (
+    BF,
+    BT,
+    BV,
+    BW,
+    BX,
+    DT,
+    INERTIA,
+    MASS,
+    N_ENERGY_ROWS,
+    _forces,
+    _ledger,
+    _pack,
+    _unpack,
+    njit,
+)
+
+# the host's parameter vector
+H_MASS, H_DAMPING, H_STIFFNESS, H_SCALE, H_FORCE, H_OMEGA, H_WEIGHT, N_HOST_PARAMS = range(8)
+# the host's state vector: displacement m, velocity m/s, acceleration m/s^2
+S_X, S_U, S_A, N_HOST_STATE = 0, 1, 2, 3
+# rows of the per-cycle host output (J for the works; m and N for the harmonic sums)
+(C_FORCE_WORK, C_HOST_DAMPING, C_WALL_WORK, C_X_COS, C_X_SIN, C_R_COS, C_R_SIN, C_X_PEAK,
+ C_WALL_GROSS, N_CYCLE_ROWS) = range(10)
+
+
+@njit(cache=True, error_model="numpy")
+def _host_energy(host_p, state, dt):
+    """E_h = 1/2 m u^2 - m dt^2 a^2 / 8 + 1/2 k x^2 - S W_0 x, J (see the module docstring)."""
+    m = host_p[H_MASS]
+    x, u, a = state[S_X], state[S_U], state[S_A]
+    return (0.5 * m * u * u - m * dt * dt * a * a / 8.0 + 0.5 * host_p[H_STIFFNESS] * x * x
+            - host_p[H_SCALE] * host_p[H_WEIGHT] * x)
+
+
+@njit(cache=True, error_model="numpy")
+def set_up_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
+                   normals, offsets, zw, vw):
+    """The forces of the initial state with the walls at ``zw`` (m) moving at ``vw`` (m/s), as
+    :func:`pidpipe.dem.kernel.set_up` (no history update; its energy terms are not counted)."""
+    _pack(x, v, w, f, t, body)
+    for b in range(x.shape[1]):
+        out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
+                      vw, 0.0, False)
+        wall_fz[b] = out[0]
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
+def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
+                normals, offsets, host_p, host_state, step0, n_cycles, steps_per_cycle,
+                reference, out_cycle, out_cell, out_terms, out_energy, out_host_energy):
+    """Advance the host and every cell by ``n_cycles * steps_per_cycle`` steps from ``step0``.
+
+    Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
+    ----------
+    x ... wall_fz, p, flags, normals, offsets : as for :func:`pidpipe.dem.kernel.run`; the
+        forces in ``f``/``t`` and ``wall_fz`` (nb,) must be those of the state (set-up).
+    host_p : (N_HOST_PARAMS,) m_h kg, c_h N s/m, k_h N/m, S (cells per integrated cell),
+        F_0 N, Omega rad/s, W_0 N (the weight of the nb cells' spheres, unscaled)
+    host_state : (N_HOST_STATE,) x m, u m/s, a m/s^2 at step ``step0``; written at the end
+    reference : (nb,) zero of the spheres' potential energy, m
+    out_cycle : (N_CYCLE_ROWS, n_cycles) per cycle: the force's work W_F, the host's damping
+        D_h, the scaled walls' work S W_w (J); sums over the cycle's steps of x cos, x sin,
+        R cos, R sin of Omega t (R = -S (F_w - W_0), the spheres' force on the host), divided
+        by steps_per_cycle / 2 (the first Fourier coefficients, m and N); the largest |x|, m;
+        the scaled work exchanged with the walls, the sum of |S W_w| step by step, J
+    out_cell : (2, nb, n_cycles) per cell, the sums of F_w,b cos and F_w,b sin of Omega t divided
+        by steps_per_cycle / 2 (the first Fourier coefficients of its walls' z force, N)
+    out_terms : (4, 2, nb, n_cycles) the spheres' dissipation by term and contact type, J
+    out_energy : (8, nb, n_cycles + 1) the spheres' energies at the cycle boundaries (kernel
+        rows E_*)
+    out_host_energy : (n_cycles + 1,) E_h at the boundaries, J
+    """
+    _pack(x, v, w, f, t, body)
+    n = x.shape[2]
+    n_batch = x.shape[1]
+    dt = p[DT]
+    half_over_m = 0.5 * dt / p[MASS]
+    half_over_i = 0.5 * dt / p[INERTIA]
+    friction, rotation = flags[0] != 0, flags[1] != 0
+    m_h, c_h, k_h = host_p[H_MASS], host_p[H_DAMPING], host_p[H_STIFFNESS]
+    scale, force0, omega, weight0 = host_p[H_SCALE], host_p[H_FORCE], host_p[H_OMEGA], host_p[H_WEIGHT]
+    half_dt_over_mh = 0.5 * dt / m_h
+    implicit = 1.0 / (1.0 + c_h * half_dt_over_mh)
+    xh, uh, ah = host_state[S_X], host_state[S_U], host_state[S_A]
+    fz_prev = np.empty(n_batch)
+    for b in range(n_batch):
+        fz_prev[b] = wall_fz[b]
+    acc = np.zeros((4, 2, n_batch))
+    cell_fz = np.zeros(n_batch)
+    force_prev = force0 * math.cos(omega * (step0 * dt))
+    harmonic = 2.0 / steps_per_cycle
+    for b in range(n_batch):
+        _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, 0])
+    out_host_energy[0] = _host_energy(host_p, host_state, dt)
+    for cycle in range(n_cycles):
+        acc[:] = 0.0
+        work_f = damp_h = work_w = gross_w = xc = xs = rc = rs = peak = 0.0
+        first = step0 + cycle * steps_per_cycle
+        for s in range(steps_per_cycle):
+            # first half kick and drift: spheres, then the host (the walls)
+            for b in range(n_batch):
+                cell = body[b]
+                for i in range(n):
+                    for c in range(3):
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
+                    for c in range(3):
+                        cell[i, BX + c] += cell[i, BV + c] * dt
+                    if rotation:
+                        for c in range(3):
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+            u_half = uh + ah * (0.5 * dt)
+            dx = u_half * dt
+            x_new = xh + dx
+            # forces at the new positions, walls at x_new moving with u_half
+            fz_sum = 0.0
+            wall_work = 0.0
+            for b in range(n_batch):
+                out = _forces(body[b], hist[b], p, friction, rotation, normals, offsets, x_new,
+                              u_half, 0.0, True)
+                fz = out[0]
+                wall_work += (fz_prev[b] + fz) * (0.5 * dx)
+                fz_prev[b] = fz
+                cell_fz[b] = fz
+                fz_sum += fz
+                acc[0, 0, b] += out[1]
+                acc[1, 0, b] += out[2]
+                acc[2, 0, b] += out[3]
+                acc[3, 0, b] += out[4]
+                acc[0, 1, b] += out[5]
+                acc[1, 1, b] += out[6]
+                acc[2, 1, b] += out[7]
+                acc[3, 1, b] += out[8]
+            # the host's second half kick, implicit in its damping
+            phase = omega * ((first + s + 1) * dt)
+            force_new = force0 * math.cos(phase)
+            reaction = -scale * (fz_sum - weight0)
+            rhs = force_new - k_h * x_new + reaction
+            u_new = (u_half + rhs * half_dt_over_mh) * implicit
+            a_new = (rhs - c_h * u_new) / m_h
+            work_f += (force_prev + force_new) * (0.5 * dx)
+            damp_h += c_h * (uh + u_new) * (0.5 * dx)
+            work_w += scale * wall_work
+            gross_w += abs(scale * wall_work)
+            cos_p, sin_p = math.cos(phase), math.sin(phase)
+            xc += x_new * cos_p
+            xs += x_new * sin_p
+            rc += reaction * cos_p
+            rs += reaction * sin_p
+            peak = max(peak, abs(x_new))
+            for b in range(n_batch):
+                out_cell[0, b, cycle] += cell_fz[b] * cos_p
+                out_cell[1, b, cycle] += cell_fz[b] * sin_p
+            xh, uh, ah = x_new, u_new, a_new
+            force_prev = force_new
+            # the spheres' second half kick
+            for b in range(n_batch):
+                cell = body[b]
+                for i in range(n):
+                    for c in range(3):
+                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
+                    if rotation:
+                        for c in range(3):
+                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+        out_cycle[C_FORCE_WORK, cycle] = work_f
+        out_cycle[C_HOST_DAMPING, cycle] = damp_h
+        out_cycle[C_WALL_WORK, cycle] = work_w
+        out_cycle[C_X_COS, cycle] = xc * harmonic
+        out_cycle[C_X_SIN, cycle] = xs * harmonic
+        out_cycle[C_R_COS, cycle] = rc * harmonic
+        out_cycle[C_R_SIN, cycle] = rs * harmonic
+        out_cycle[C_X_PEAK, cycle] = peak
+        out_cycle[C_WALL_GROSS, cycle] = gross_w
+        for b in range(n_batch):
+            out_cell[0, b, cycle] *= harmonic
+            out_cell[1, b, cycle] *= harmonic
+            for kind in range(2):
+                s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
+                damping = dt * s3
+                out_terms[0, kind, b, cycle] = 0.5 * dt * s0
+                out_terms[1, kind, b, cycle] = 0.5 * s2
+                out_terms[2, kind, b, cycle] = damping
+                out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
+            _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, cycle + 1])
+        host_state[S_X], host_state[S_U], host_state[S_A] = xh, uh, ah
+        out_host_energy[cycle + 1] = _host_energy(host_p, host_state, dt)
+    for b in range(n_batch):
+        wall_fz[b] = fz_prev[b]
+    host_state[S_X], host_state[S_U], host_state[S_A] = xh, uh, ah
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+__all__ = ["run_coupled", "set_up_coupled", "N_ENERGY_ROWS"]

@@ -1,0 +1,176 @@
+"""Driving the compiled host-coupled loop (:mod:`pidpipe.dem.coupled`): one forcing frequency.
+
+:func:`run_host` takes a DEM scene (its timestep, a whole number of steps per period of the
+force), k settled packings (or none: the bare host), the host's parameters and the force, and
+returns the per-cycle series: the host's first-harmonic displacement, the spheres' first-harmonic
+force on it, and every term of the energy balance. See :mod:`pidpipe.dem.coupled` for the
+equations and the gravity convention.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from pidpipe.dem import compiled, coupled
+from pidpipe.dem.energy import centre_of_mass_height
+from pidpipe.dem.run import prepare
+from pidpipe.dem.scene import Scene
+from pidpipe.dem.state import initial_state
+
+
+@dataclass(frozen=True)
+class HostDrive:
+    """The host and its forcing, SI.
+
+    Attributes
+    ----------
+    mass_kg : float
+        m_h, the host's mass without the spheres, kg.
+    stiffness_n_m : float
+        k_h, N/m.
+    damping_ns_m : float
+        c_h, the host's own (structural) viscous damping, N s/m.
+    force_n : float
+        F_0, amplitude of the force F_0 cos(Omega t), N.
+    cell_scale : float
+        S = n_c / k: filled cells each integrated cell stands for (0: the spheres feel the host
+        but do not act on it).
+    """
+
+    mass_kg: float
+    stiffness_n_m: float
+    damping_ns_m: float
+    force_n: float
+    cell_scale: float
+
+    def __post_init__(self) -> None:
+        if not (self.mass_kg > 0 and self.stiffness_n_m > 0 and self.damping_ns_m >= 0
+                and self.force_n >= 0 and self.cell_scale >= 0):
+            raise ValueError(f"host needs mass > 0, stiffness > 0, damping >= 0, force >= 0 and "
+                             f"cell_scale >= 0; got {self}")
+
+
+def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
+             initial_displacement_m: float = 0.0, initial_velocity_m_s: float = 0.0) -> dict:
+    """Force the host at the scene's frequency for ``n_cycles`` periods, from t = 0.
+
+    Parameters
+    ----------
+    scene : Scene
+        The DEM scene; its ``freq_hz`` is the forcing frequency and its timestep divides the
+        period into ``steps_per_cycle`` steps (its base acceleration is not used).
+    positions_m : array_like, shape (k, n, 3), or None
+        Settled packings of the k integrated cells (cell frame, m); None or k = 0: no spheres.
+    host : HostDrive
+    n_cycles : int
+    initial_displacement_m, initial_velocity_m_s : float
+        The host's state at t = 0 (m, m/s); the packings start resting on its floor (shifted
+        by the displacement, moving with its velocity).
+
+    Returns
+    -------
+    dict
+        Per cycle, shape (n_cycles,): ``force_work_j`` (W_F), ``host_damping_j`` (D_h),
+        ``wall_work_j`` (S W_w), ``gross_wall_work_j`` (the sum of |S W_w| step by step),
+        ``particle_dissipation_j`` (S D_p, term by term),
+        ``energy_change_j`` (Delta(E_h + S E_p)), ``balance_residual_j`` (W_F - D_h - S D_p -
+        Delta E), ``displacement`` (complex first harmonic X, m, x = Re(X e^{i Omega t})),
+        ``reaction`` (complex first harmonic of the spheres' force on the host, N),
+        ``peak_displacement_m``; and ``host_energy_j``, ``particle_energy_j`` (S E_p) at the
+        n_cycles + 1 boundaries; per cell, shape (k, n_cycles): ``cell_wall_force`` (complex first
+        harmonic of its walls' z force, N; the weight is a constant and drops out) and
+        ``cell_dissipation_j`` (its spheres' dissipation, unscaled, J); ``steps_per_cycle``, ``timestep_s``, ``n_cells``,
+        ``n_spheres``, ``cpu_s``.
+    """
+    started = time.process_time()
+    k = 0 if positions_m is None else int(np.asarray(positions_m).shape[0])
+    if k == 0:
+        scene = dataclasses.replace(scene, accel_g=np.zeros(0))
+        state = initial_state(np.zeros((0, 1, 3)))
+    else:
+        scene, state = prepare(dataclasses.replace(scene, accel_g=np.zeros(k)), positions_m)
+        # the bed rests on the floor of the moving host: shifted with it and moving with it
+        state.x[2] += initial_displacement_m
+        state.v[2] = initial_velocity_m_s
+    ws = compiled.KernelWorkspace(scene, state)
+    compiled._call(coupled.set_up_coupled, *ws.state_arrays(state)[:-1],
+                   float(initial_displacement_m), float(initial_velocity_m_s))
+    n = state.n_spheres if k else 0
+    omega = scene.omega_rad_s
+    weight = k * n * scene.mass_kg * scene.gravity_m_s2
+    params = np.zeros(coupled.N_HOST_PARAMS)
+    params[coupled.H_MASS] = host.mass_kg
+    params[coupled.H_DAMPING] = host.damping_ns_m
+    params[coupled.H_STIFFNESS] = host.stiffness_n_m
+    params[coupled.H_SCALE] = host.cell_scale
+    params[coupled.H_FORCE] = host.force_n
+    params[coupled.H_OMEGA] = omega
+    params[coupled.H_WEIGHT] = weight
+    reaction0 = -host.cell_scale * (float(ws.wall_force_z.sum()) - weight)
+    accel0 = (host.force_n - host.damping_ns_m * initial_velocity_m_s
+              - host.stiffness_n_m * initial_displacement_m + reaction0) / host.mass_kg
+    host_state = np.array([initial_displacement_m, initial_velocity_m_s, accel0])
+    n_cycles = int(n_cycles)
+    per_cycle = np.zeros((coupled.N_CYCLE_ROWS, n_cycles))
+    per_cell = np.zeros((2, k, n_cycles))
+    terms = np.zeros((4, 2, k, n_cycles))
+    energy = np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1))
+    host_energy = np.zeros(n_cycles + 1)
+    reference = np.ascontiguousarray(centre_of_mass_height(state)) if k else np.zeros(0)
+    compiled._call(coupled.run_coupled, *ws.state_arrays(state)[:-1], params, host_state,
+                   0, n_cycles, int(scene.steps_per_cycle), reference, per_cycle, per_cell, terms,
+                   energy, host_energy)
+    state.step += n_cycles * scene.steps_per_cycle
+    return cycle_series(per_cycle, terms, energy, host_energy, host.cell_scale) | dict(
+        cell_wall_force=per_cell[0] - 1j * per_cell[1],
+        cell_dissipation_j=terms.sum(axis=(0, 1)),
+        steps_per_cycle=int(scene.steps_per_cycle), timestep_s=float(scene.timestep_s),
+        n_cells=k, n_spheres=n, freq_hz=float(scene.freq_hz),
+        cpu_s=time.process_time() - started)
+
+
+def cycle_series(per_cycle: np.ndarray, terms: np.ndarray, energy: np.ndarray,
+                 host_energy: np.ndarray, cell_scale: float) -> dict:
+    """The named per-cycle series of :func:`run_host` from the kernel's output arrays."""
+    from pidpipe.dem.kernel import E_LEDGER
+
+    particle_energy = cell_scale * energy[E_LEDGER].sum(axis=0)
+    dissipation = cell_scale * terms.sum(axis=(0, 1, 2))
+    change = np.diff(host_energy + particle_energy)
+    work, damping = per_cycle[coupled.C_FORCE_WORK], per_cycle[coupled.C_HOST_DAMPING]
+    # x = Re(X e^{i Omega t}) = X_r cos - X_i sin: the cosine sum is X_r, the sine sum -X_i
+    displacement = per_cycle[coupled.C_X_COS] - 1j * per_cycle[coupled.C_X_SIN]
+    reaction = per_cycle[coupled.C_R_COS] - 1j * per_cycle[coupled.C_R_SIN]
+    return dict(force_work_j=work, host_damping_j=damping,
+                wall_work_j=per_cycle[coupled.C_WALL_WORK],
+                gross_wall_work_j=per_cycle[coupled.C_WALL_GROSS], particle_dissipation_j=dissipation,
+                energy_change_j=change, balance_residual_j=work - damping - dissipation - change,
+                displacement=displacement, reaction=reaction,
+                peak_displacement_m=per_cycle[coupled.C_X_PEAK], host_energy_j=host_energy,
+                particle_energy_j=particle_energy)
+
+
+def effective_mass_and_damping(displacement: np.ndarray, reaction: np.ndarray,
+                               omega_rad_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The spheres' force as a mass and a dashpot: R = -m_eff x'' - c_eff x' at the first
+    harmonic, so R / X = m_eff Omega^2 - i Omega c_eff.
+
+    Parameters
+    ----------
+    displacement, reaction : complex ndarray, same shape
+        First harmonics of the host's displacement (m) and of the spheres' force on it (N).
+    omega_rad_s : float
+
+    Returns
+    -------
+    m_eff_kg, c_eff_ns_m : ndarray
+    """
+    ratio = reaction / displacement
+    return ratio.real / omega_rad_s**2, -ratio.imag / omega_rad_s
+
+
+__all__ = ["HostDrive", "run_host", "cycle_series", "effective_mass_and_damping"]

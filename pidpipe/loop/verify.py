@@ -1,0 +1,379 @@
+"""Each design checked by DEM where it matters: at its fill, at its band's corners and centre.
+
+Which cases (:func:`plan_points`)
+---------------------------------
+For every environment's ``band_mean`` and ``peak`` design (:data:`VERIFIED_KINDS`) of the
+optimisation (``results/optimum.json``), five points of its band [f_lo, f_hi] x [G_lo, G_hi]:
+the four corners and the centre ((f_lo + f_hi)/2, (G_lo + G_hi)/2; the band mean takes f and G
+uniform in their bands). The design's fill r_d stands in general for a fractional number of
+spheres per cell; a cell holds whole spheres, so the DEM pours n = round half up of
+(full_cell_spheres x r_d / 100), as for every fill of the campaign, and the case's fill is that
+count's, 100 n / full_cell_spheres, rounded to 1e-3 % (which gives n back). The surrogate is
+read at the design's own fill r_d: its fill axis is the grid's nominal fill, each grid fill
+having been poured the same way (r = 50 % of 21 spheres is 11 spheres), so r_d is where the
+surrogate says what the design gives, and the DEM case is what a cell filled at r_d holds; the
+rounding to whole spheres between grid points is part of what is checked. Points that two
+designs share (the same sphere count, f and G, e.g. a peak and a band_mean design at one fill)
+are one case, run once (:func:`unique_case_ids`); the table keeps a row per design and point,
+each with the surrogate at its own design's fill.
+
+The surrogate's standard uncertainty (:func:`surrogate_uncertainty`)
+--------------------------------------------------------------------
+u_s = sqrt(u_noise^2 + u_interp^2), N*s/m:
+
+``u_noise``
+    the standard deviation at the point of ``draws`` refits of the surrogate on the C_eq table
+    redrawn within its SEMs (:func:`pidpipe.design.bootstrap.resampled_surrogates`): the grid's
+    statistical error carried through the interpolant (NaN, and left out, when the table has
+    no SEMs or ``draws`` is 0);
+``u_interp``
+    e_loo x the prediction, e_loo the RMS relative leave-one-out error of the surrogate's method
+    on its own table (:func:`pidpipe.design.bootstrap.loo_rel_error`): the error of
+    interpolating between grid points, one figure for the whole domain (NaN, and left out,
+    when there is no fold).
+
+It includes the table's noise and a global estimate of the interpolation error. It omits how
+the interpolation error varies over the domain (larger far from grid points, smaller near them:
+one RMS is used everywhere), and the DEM's own systematic error (contact model, fidelity
+settings), which the grid and the verifying cases share when they run the same engine at the
+same fidelity; a solver difference enters when ``verify.engine`` is not the campaign's engine
+(each row names its engine). e_loo, measured on DEM data, also holds the held-out points' own
+noise, so u_interp partly counts u_noise again: u_s leans large, and |z| small.
+
+The comparison (:func:`compare`)
+--------------------------------
+z_combined = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), for the coupon's C_eq (what the
+surrogate models); ``surrogate_off`` is |z_combined| > ``flag_z``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from pidpipe.cases import CaseSpec
+from pidpipe.config.derived import spheres_at_fill
+from pidpipe.errors import PidpipeError
+
+#: The designs checked, in the table's order.
+VERIFIED_KINDS: tuple[str, ...] = ("band_mean", "peak")
+
+#: The points of a band, in the table's order.
+POINT_NAMES: tuple[str, ...] = ("f_lo_G_lo", "f_lo_G_hi", "f_hi_G_lo", "f_hi_G_hi", "centre")
+
+#: Decimals of a verifying case's fill, percent.
+FILL_DECIMALS = 3
+
+#: Columns of the plan (results/verify/points.csv), one row per design and point.
+POINT_COLUMNS: tuple[str, ...] = (
+    "case_id", "environment", "design", "point", "freq_hz", "accel_g", "design_fill_pct",
+    "fill_pct", "n_spheres", "n_cells",
+)
+
+#: Columns of results/verify.csv, in order.
+VERIFY_COLUMNS: tuple[str, ...] = POINT_COLUMNS + (
+    "engine", "solver", "dem_status", "dem_flags", "n_cycles", "n_cells_measured",
+    "transient_cycles", "steps_per_cycle",
+    "target_relative_sem", "target_reached", "dem_cpu_time_s",
+    "ceq_coupon_dem_ns_m", "ceq_coupon_dem_sem_ns_m",
+    "surrogate_method", "ceq_coupon_surrogate_ns_m", "surrogate_noise_sd_ns_m",
+    "surrogate_interp_sd_ns_m", "surrogate_u_ns_m", "difference_ns_m", "z_combined",
+    "surrogate_off", "note",
+)
+
+
+def band_points(freq_band: tuple[float, float],
+                accel_band: tuple[float, float]) -> list[tuple[str, float, float]]:
+    """The band's four corners and its centre: (name, f in Hz, G in g), :data:`POINT_NAMES` order."""
+    (f_lo, f_hi), (g_lo, g_hi) = (float(v) for v in freq_band), (float(v) for v in accel_band)
+    return [("f_lo_G_lo", f_lo, g_lo), ("f_lo_G_hi", f_lo, g_hi), ("f_hi_G_lo", f_hi, g_lo),
+            ("f_hi_G_hi", f_hi, g_hi), ("centre", 0.5 * (f_lo + f_hi), 0.5 * (g_lo + g_hi))]
+
+
+def poured_fill(design_fill_pct: float, full_cell_spheres: int) -> tuple[float, int]:
+    """The fill (%) and sphere count the DEM pours for a design's fill.
+
+    Parameters
+    ----------
+    design_fill_pct : float
+        The design's fill, percent (a fractional number of spheres per cell in general).
+    full_cell_spheres : int
+        Spheres at 100 %.
+
+    Returns
+    -------
+    (float, int)
+        100 n / full_cell_spheres rounded to :data:`FILL_DECIMALS`, and n.
+
+    Raises
+    ------
+    PidpipeError
+        The fill holds no whole sphere.
+    """
+    n_spheres = spheres_at_fill(int(full_cell_spheres), float(design_fill_pct))
+    if n_spheres < 1:
+        raise PidpipeError(f"a design's fill of {design_fill_pct:g} % holds no whole sphere "
+                           f"({full_cell_spheres} spheres fill a cell): nothing to verify")
+    fill_pct = round(100.0 * n_spheres / int(full_cell_spheres), FILL_DECIMALS)
+    if spheres_at_fill(int(full_cell_spheres), fill_pct) != n_spheres:    # cannot happen for
+        raise PidpipeError(f"fill {fill_pct:g} % does not give {n_spheres} spheres back")  # sane sizes
+    return fill_pct, n_spheres
+
+
+def plan_points(designs: list[dict], full_cell_spheres: int,
+                kinds: tuple[str, ...] = VERIFIED_KINDS) -> pd.DataFrame:
+    """The verifying cases of every design of ``kinds``: one row per design and band point.
+
+    Parameters
+    ----------
+    designs : list of dict
+        The optimisation's results as written to ``results/optimum.json``: each with
+        ``environment`` ({name, ...}), ``kind``, ``bounds`` ({freq_hz: [lo, hi], accel_g: [lo,
+        hi], ...}) and ``design`` ({fill_pct, n_cells, ...}).
+    full_cell_spheres : int
+        Spheres at 100 % fill.
+    kinds : tuple of str
+        The designs to check.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`POINT_COLUMNS`; environments in their order, then ``kinds``' order, then
+        :data:`POINT_NAMES`. Rows of equal (fill, f, G) share a ``case_id``.
+
+    Raises
+    ------
+    PidpipeError
+        No design of ``kinds``, or a design without bounds or fill.
+    """
+    order = {kind: i for i, kind in enumerate(kinds)}
+    chosen = [d for d in designs if d.get("kind") in order]
+    if not chosen:
+        raise PidpipeError(f"no {' or '.join(kinds)} design in the optimisation's results: "
+                           "nothing to verify")
+    environments = list(dict.fromkeys(d["environment"]["name"] for d in chosen))
+    chosen.sort(key=lambda d: (environments.index(d["environment"]["name"]), order[d["kind"]]))
+    rows = []
+    for result in chosen:
+        name = result["environment"]["name"]
+        try:
+            bounds, design = result["bounds"], result["design"]
+            freq_band, accel_band = bounds["freq_hz"], bounds["accel_g"]
+            design_fill, n_cells = float(design["fill_pct"]), int(design["n_cells"])
+        except (KeyError, TypeError) as exc:
+            raise PidpipeError(f"design {result['kind']} of {name!r} has no {exc} in the "
+                               "optimisation's results") from None
+        fill_pct, n_spheres = poured_fill(design_fill, full_cell_spheres)
+        for point, freq_hz, accel_g in band_points(freq_band, accel_band):
+            rows.append({"case_id": CaseSpec(freq_hz, accel_g, fill_pct).case_id,
+                         "environment": name, "design": result["kind"], "point": point,
+                         "freq_hz": freq_hz, "accel_g": accel_g, "design_fill_pct": design_fill,
+                         "fill_pct": fill_pct, "n_spheres": n_spheres, "n_cells": n_cells})
+    return pd.DataFrame(rows, columns=list(POINT_COLUMNS))
+
+
+def unique_case_ids(points: pd.DataFrame) -> list[str]:
+    """The distinct cases of a plan, in first-seen order: a point two designs share runs once."""
+    return list(dict.fromkeys(points["case_id"]))
+
+
+def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
+                          seed: int) -> pd.DataFrame:
+    """The surrogate's prediction and standard uncertainty at each point (module docstring).
+
+    Parameters
+    ----------
+    surrogate : pidpipe.design.surrogate.Surrogate
+    points : pandas.DataFrame
+        With ``freq_hz`` (Hz), ``accel_g`` (g) and ``design_fill_pct`` (%, where the surrogate
+        is read), m rows.
+    draws, seed : int
+        Refits on the table redrawn within its SEMs, and their seed (0 draws: no noise part).
+
+    Returns
+    -------
+    pandas.DataFrame
+        m rows: ``surrogate_method``, ``ceq_coupon_surrogate_ns_m``,
+        ``surrogate_noise_sd_ns_m``, ``surrogate_interp_sd_ns_m``, ``surrogate_u_ns_m``
+        (N*s/m) and ``note`` (what was left out, or where the fill was held to the domain).
+    """
+    from pidpipe.design.bootstrap import has_sem, loo_rel_error, resampled_surrogates
+
+    freq, accel, fill = (points[c].to_numpy(dtype=float)
+                         for c in ("freq_hz", "accel_g", "design_fill_pct"))
+    lo, hi = surrogate.domain["fill_pct"]
+    held = np.clip(fill, lo, hi)
+    notes = [f"surrogate at the fill domain's edge {h:g} % (the design's fill is {r:g} %)"
+             if h != r else "" for r, h in zip(fill, held)]
+    prediction = np.asarray(surrogate.predict(freq, accel, held), dtype=float).reshape(-1)
+    if draws > 0 and has_sem(surrogate):
+        redrawn = np.array([model.predict(freq, accel, held)
+                            for model in resampled_surrogates(surrogate, draws, seed)])
+        noise = redrawn.std(axis=0, ddof=1) if draws > 1 else np.full_like(prediction, np.nan)
+    else:
+        noise = np.full_like(prediction, np.nan)
+    interp = loo_rel_error(surrogate) * prediction
+    parts = np.vstack([noise, interp])
+    total = np.sqrt(np.nansum(parts**2, axis=0))
+    total[np.all(np.isnan(parts), axis=0)] = np.nan
+    left_out = [name for name, part in (("noise", noise), ("interpolation", interp))
+                if np.all(np.isnan(part))]
+    if left_out:
+        notes = [_join(note, f"surrogate uncertainty without its {' and '.join(left_out)} part")
+                 for note in notes]
+    return pd.DataFrame({"surrogate_method": surrogate.method,
+                         "ceq_coupon_surrogate_ns_m": prediction,
+                         "surrogate_noise_sd_ns_m": noise, "surrogate_interp_sd_ns_m": interp,
+                         "surrogate_u_ns_m": total, "note": notes})
+
+
+def z_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
+               surrogate_u: np.ndarray) -> np.ndarray:
+    """(C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), shape of the inputs; NaN where the combined
+    uncertainty is not a positive number."""
+    dem, dem_sem, surrogate, surrogate_u = (np.asarray(a, dtype=float)
+                                            for a in (dem, dem_sem, surrogate, surrogate_u))
+    combined = np.hypot(dem_sem, surrogate_u)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(combined > 0, (dem - surrogate) / combined, np.nan)
+
+
+def is_off(z: np.ndarray, flag_z: float) -> np.ndarray:
+    """Whether the surrogate is off by more than ``flag_z`` combined standard uncertainties
+    (False where z is NaN)."""
+    z = np.asarray(z, dtype=float)
+    return np.isfinite(z) & (np.abs(z) > float(flag_z))
+
+
+def record_columns(record: dict) -> dict:
+    """The DEM columns of a verifying case's record (failed: NaN values)."""
+    from pidpipe.design.records import record_cpu_time_s
+
+    nan = math.nan
+    target = record.get("target") or {}
+    fidelity = record.get("fidelity") or {}
+    return {
+        "engine": (record.get("engine") or {}).get("name", fidelity.get("engine", "")),
+        "solver": record.get("solver", ""), "dem_status": record.get("status", "missing"),
+        "dem_flags": ";".join(record.get("flags", [])),
+        "n_cycles": int(record.get("n_cycles", 0)),
+        "n_cells_measured": int(target.get("cells", fidelity.get("cells_per_run", 0))),
+        "transient_cycles": fidelity.get("transient_cycles", nan),
+        "steps_per_cycle": fidelity.get("steps_per_cycle", nan),
+        "target_relative_sem": target.get("relative_sem", nan),
+        "target_reached": target.get("reached", ""),
+        "dem_cpu_time_s": record_cpu_time_s(record),
+        "ceq_coupon_dem_ns_m": float(record.get("ceq_coupon_ns_m", nan)),
+        "ceq_coupon_dem_sem_ns_m": float(record.get("ceq_coupon_sem_ns_m", nan)),
+    }
+
+
+#: The record's ``fidelity`` keys a verifying case must share with the configured settings.
+FIDELITY_KEYS: tuple[str, ...] = ("engine", "timestep_rayleigh_fraction_config",
+                                  "youngs_modulus_scale", "measured_cycles", "rotation", "friction",
+                                  "cells_per_run")
+
+
+def stale_records(records: dict[str, dict], fidelity: dict,
+                  target_relative_sem: float | None) -> list[str]:
+    """The cases whose record was not made with the configured settings, each with the reason.
+
+    Snakemake reruns a case whose settings changed, except in the run in which the checkpoint
+    that plans the cases ran too (it does not check the provenance of jobs it adds after a
+    checkpoint): this catches a record left from before the change.
+
+    Parameters
+    ----------
+    records : dict of str -> dict
+        Case id -> record.
+    fidelity : dict
+        The expected values of :data:`FIDELITY_KEYS` (a record's ``fidelity`` block).
+    target_relative_sem : float or None
+        The campaign's target (None: pilot only, the record has no ``target``).
+
+    Returns
+    -------
+    list of str
+        ``"<case>: <key> <recorded> (configured <value>)"``, empty when every record is current.
+    """
+    stale = []
+    for case_id, record in records.items():
+        made = record.get("fidelity") or {}
+        for key in FIDELITY_KEYS:
+            if made.get(key) != fidelity[key]:
+                stale.append(f"{case_id}: {key} {made.get(key)!r} (configured {fidelity[key]!r})")
+        target = (record.get("target") or {}).get("relative_sem")
+        if record.get("status") != "failed" and target != target_relative_sem:
+            stale.append(f"{case_id}: target_relative_sem {target!r} (configured "
+                         f"{target_relative_sem!r})")
+    return stale
+
+
+def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.DataFrame,
+            flag_z: float) -> pd.DataFrame:
+    """The verification table: each design point's DEM case against the surrogate.
+
+    Parameters
+    ----------
+    points : pandas.DataFrame
+        :func:`plan_points`, m rows.
+    records : dict of str -> dict
+        The record of every case id of ``points``.
+    predictions : pandas.DataFrame
+        :func:`surrogate_uncertainty` at ``points``, m rows in the same order.
+    flag_z : float
+        ``surrogate_off`` when |z_combined| exceeds it.
+
+    Returns
+    -------
+    pandas.DataFrame
+        :data:`VERIFY_COLUMNS`, m rows (values in N*s/m; a shared case repeats in each of its
+        designs' rows).
+
+    Raises
+    ------
+    PidpipeError
+        A case of the plan has no record, or a record is of another case.
+    """
+    missing = [c for c in unique_case_ids(points) if c not in records]
+    if missing:
+        raise PidpipeError(f"no record of the verifying case(s) {', '.join(missing)}")
+    rows = []
+    for case_id in points["case_id"]:
+        record = records[case_id]
+        if record.get("case_id") != case_id:
+            raise PidpipeError(f"the record given for {case_id} is of case {record.get('case_id')!r}")
+        rows.append(record_columns(record))
+    dem = pd.DataFrame(rows, index=points.index)
+    table = pd.concat([points, dem, predictions.set_index(points.index)], axis=1)
+    table["difference_ns_m"] = table["ceq_coupon_dem_ns_m"] - table["ceq_coupon_surrogate_ns_m"]
+    table["z_combined"] = z_combined(table["ceq_coupon_dem_ns_m"], table["ceq_coupon_dem_sem_ns_m"],
+                                     table["ceq_coupon_surrogate_ns_m"], table["surrogate_u_ns_m"])
+    table["surrogate_off"] = is_off(table["z_combined"], flag_z)
+    notes = []
+    for _, row in table.iterrows():
+        note = row["note"]
+        if row["surrogate_off"]:
+            note = _join(note, f"surrogate off by {row['z_combined']:+.1f} combined standard "
+                               f"uncertainties (|z| > {flag_z:g})")
+        if row["dem_status"] != "ok":
+            note = _join(note, f"DEM case {row['dem_status']}"
+                               + (f" ({row['dem_flags']})" if row["dem_flags"] else ""))
+        notes.append(note)
+    table["note"] = notes
+    return table[list(VERIFY_COLUMNS)]
+
+
+def off_lines(table: pd.DataFrame) -> list[str]:
+    """One line per row where the surrogate is off (for the rule's log)."""
+    return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
+            f"{row['ceq_coupon_dem_ns_m']:.4g} +- {row['ceq_coupon_dem_sem_ns_m']:.2g}, surrogate "
+            f"{row['ceq_coupon_surrogate_ns_m']:.4g} +- {row['surrogate_u_ns_m']:.2g} N*s/m, "
+            f"z = {row['z_combined']:+.2f}"
+            for _, row in table[table["surrogate_off"]].iterrows()]
+
+
+def _join(note: str, more: str) -> str:
+    return f"{note}; {more}" if note else more

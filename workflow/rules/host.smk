@@ -1,0 +1,53 @@
+# The host-coupled check of the C_eq model (not part of `all`): a single-degree-of-freedom host
+# carrying the design's filled cells (config host), forced around its resonance, (a) coupled to
+# the compiled DEM and (b) with the surrogate's C_eq as a dashpot; their curves compared.
+#   snakemake --cores 2 host
+# One job pours the host's k packings (results/work/host/packings, reused) and runs every force
+# level x frequency, two at a time with --cores 2.
+
+from pidpipe.steps.host import host_params
+
+
+def get_host_config():
+    """The config values the host check depends on (pidpipe.steps.host.host_params)."""
+    return host_params(config)
+
+
+rule check_host:
+    input:
+        surrogate="results/surrogate.json",
+        designs="results/optimum.json",
+    output:
+        curves=report("results/host/curves.csv", caption="../report/host.rst", category="7. Host"),
+        summary=report("results/host/summary.csv", caption="../report/host.rst",
+                       category="7. Host"),
+        meta="results/host/host.json",
+    params:
+        config=get_host_config(),
+        folder="results/work/host/packings",
+    log:
+        "logs/check_host.log",
+    benchmark:
+        "results/benchmarks/check_host.tsv"
+    threads: 2
+    script:
+        "../scripts/check_host.py"
+
+
+rule plot_host:
+    input:
+        curves="results/host/curves.csv",
+    output:
+        png=report("results/host/host.png", caption="../report/host.rst", category="7. Host"),
+    log:
+        "logs/plot_host.log",
+    script:
+        "../scripts/plot_host.py"
+
+
+rule host:
+    input:
+        "results/host/curves.csv",
+        "results/host/summary.csv",
+        "results/host/host.json",
+        "results/host/host.png",
