@@ -36,7 +36,7 @@ from _record import append
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
 from pidpipe.config.settings import PourSettings, ShakeSettings
-from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.dem.pouring import replicate_packings
 from pidpipe.liggghts.shake import run_case
 
 ACCEL_G, FILL_PCT = 5.0, 50.0

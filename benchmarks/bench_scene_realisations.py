@@ -34,7 +34,7 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.patch_run import run_patch
-from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.dem.pouring import replicate_packings
 from pidpipe.studies.scene import usable_packings
 
 WORK = Path(__file__).resolve().parent.parent / "results" / "work" / "scene"

@@ -27,7 +27,7 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.impacts import pair_restitution, wall_restitution
-from pidpipe.liggghts.pour import replicate_packings
+from pidpipe.dem.pouring import replicate_packings
 from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.cells import mean_of_cells
 

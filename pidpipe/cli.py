@@ -2,7 +2,7 @@
 
 ``pidpipe case --freq-hz 500 --accel-g 5 --fill-pct 50`` runs one case (pour, tap, shake) and
 prints C_eq with its standard error and the fidelity that produced it (``--engine dem`` shakes
-it in the compiled in-repo DEM instead of LIGGGHTS, on the same LIGGGHTS pour); ``--record`` writes the
+it in the compiled in-repo DEM instead of LIGGGHTS, on the same pour, by ``fidelity.pour_engine``); ``--record`` writes the
 full machine-readable record. ``pidpipe check-config`` validates a config and prints the grid.
 ``pidpipe optimise [--table FILE]`` runs the optimisation stage alone on the campaign's C_eq
 table or any table with the four required columns, and prints the designs.
@@ -87,7 +87,7 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.cell.packing import check_packing
     from pidpipe.config import load_config
     from pidpipe.config.settings import PourSettings, ShakeSettings
-    from pidpipe.liggghts.pour import pour
+    from pidpipe.dem.pouring import pour_with_engine
     from pidpipe.liggghts.shake import write_record
     from pidpipe.steps.cases import measure_case
 
@@ -101,8 +101,9 @@ def run_case_command(args: argparse.Namespace) -> int:
     case = CaseSpec(args.freq_hz, args.accel_g, args.fill_pct, args.replicate)
     cells = shaking.sampling.cells_per_run
     replicates = range(case.replicate * cells, (case.replicate + 1) * cells)
-    print(f"pidpipe: {case.case_id}: pouring {cells} packing(s) ...", file=sys.stderr, flush=True)
-    packings = [pour(pouring, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
+    print(f"pidpipe: {case.case_id}: pouring {cells} packing(s) with {pouring.pouring.engine} ...",
+          file=sys.stderr, flush=True)
+    packings = [pour_with_engine(pouring, case.fill_pct, k, args.workdir / ("pour" if cells == 1 else f"pour{k}"))
                 for k in replicates]
     for packing in packings:
         check_packing(packing, case.case_id)

@@ -1,6 +1,7 @@
 """A settled packing of spheres in the closed cell: its data, its checks, and its JSON file.
 
-The packing is poured by LIGGGHTS (:mod:`pidpipe.liggghts.pour`). When the settled pile rises
+The packing is poured by LIGGGHTS (:mod:`pidpipe.liggghts.pour`) or the compiled DEM
+(:mod:`pidpipe.dem.pour`), by the same protocol (:mod:`pidpipe.cell.pour_protocol`). When the settled pile rises
 above the lid the case is refused (:class:`~pidpipe.errors.PackingError`) before any shaking
 run, with the sphere count and the pile height it needs; a pour still moving after its
 settling is refused too (:func:`check_packing`). The same seed gives the same packing.
@@ -52,6 +53,9 @@ class Packing:
         How long the pile settled after tapping, s: ``fidelity.settle_time_s`` (rounded to whole
         steps), or a whole multiple of it when the pour needed further settling.
     fill_pct : float
+    pour_engine : str
+        The engine that poured it, ``liggghts`` or ``dem`` (``fidelity.pour_engine``); files
+        written before the DEM could pour have no such key and were poured by LIGGGHTS.
     """
 
     positions_m: list
@@ -63,6 +67,7 @@ class Packing:
     max_speed_m_s: float
     settle_time_s: float
     fill_pct: float
+    pour_engine: str = "liggghts"
 
     @property
     def fits(self) -> bool:
@@ -112,6 +117,22 @@ def random_start(cell: HexCell, n_spheres: int, radius_m: float, seed: int) -> n
                 z = max(z, float(np.max(placed[below, 2] + rise)))
         placed = np.vstack([placed, [xy[0], xy[1], z]])
     return placed
+
+
+def reusable(packing: Packing, seed: int, n_spheres: int, pour_engine: str) -> bool:
+    """Whether a packing kept from an earlier pour is the one the settings would pour now.
+
+    The same seed, sphere count and pour engine: the two engines integrate the same protocol
+    differently, so a packing poured by the other engine is poured again, not reused.
+    """
+    return (packing.seed == seed and packing.n_spheres == n_spheres
+            and packing.pour_engine == pour_engine)
+
+
+def pour_engines(packings) -> str:
+    """The engine(s) that poured some packings, for a record: ``liggghts``, ``dem`` or, should
+    a run mix them, both joined by ``+``."""
+    return "+".join(sorted({packing.pour_engine for packing in packings}))
 
 
 def check_packing(packing: Packing, case_label: str) -> None:

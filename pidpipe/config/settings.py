@@ -30,6 +30,9 @@ from pidpipe.config.inspection import MotionSampling, motion_sampling
 from pidpipe.errors import ConfigError
 from pidpipe.physics.materials import Material, PairProperties
 
+POUR_ENGINES: tuple[str, ...] = ("liggghts", "dem")
+"""Engines that pour packings (``fidelity.pour_engine``)."""
+
 
 def _material(config: dict, name: str) -> Material:
     props = config["materials"][name]
@@ -181,7 +184,7 @@ class Sampling:
 
 @dataclass(frozen=True)
 class Pouring:
-    """How packings are poured (``fidelity.settle_time_s``, ``fidelity.seed``).
+    """How packings are poured (``fidelity.settle_time_s``, ``fidelity.seed``, ``fidelity.pour_engine``).
 
     Attributes
     ----------
@@ -189,15 +192,26 @@ class Pouring:
         Settling time after the pour and after the tapping, s.
     seed : int
         Seed of replicate 0; replicate k uses seed + k.
+    engine : str
+        The engine that pours: ``liggghts`` (the default) or ``dem`` (the compiled DEM), one
+        of :data:`POUR_ENGINES`.
     """
 
     settle_time_s: float
     seed: int
+    engine: str = "liggghts"
+
+    def __post_init__(self) -> None:
+        if self.engine not in POUR_ENGINES:
+            raise ConfigError(f"fidelity.pour_engine must be one of {', '.join(POUR_ENGINES)}, "
+                              f"got {self.engine!r}")
 
     @classmethod
     def from_config(cls, config: dict) -> "Pouring":
         fid = config["fidelity"]
-        return cls(float(fid["settle_time_s"]), int(fid["seed"]))
+        # a stage's part of the config names the pour engine only when it is not LIGGGHTS (stages.py)
+        return cls(float(fid["settle_time_s"]), int(fid["seed"]),
+                   str(fid.get("pour_engine", "liggghts")))
 
 
 @dataclass(frozen=True)

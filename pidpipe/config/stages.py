@@ -8,7 +8,7 @@ from __future__ import annotations
 
 #: ``fidelity`` keys of the pours: the case stage reads them too, to pour the further packings
 #: that a case's target SEM asks for.
-POURING_KEYS: tuple[str, ...] = ("settle_time_s", "seed")
+POURING_KEYS: tuple[str, ...] = ("settle_time_s", "seed", "pour_engine")
 
 #: Config keys each stage depends on: top-level key -> list of sub-keys (None: all of it).
 #: ``materials`` and ``pairs`` are cut down to the particle and wall materials.
@@ -78,4 +78,9 @@ def stage_config(config: dict, stage: str) -> dict:
         engine = config.get("engine", "liggghts")
         if engine != "liggghts":
             part["engine"] = engine
+    # the pour engine, likewise: both stages pour (a case its further packings); a switch
+    # re-pours every packing and reruns every case
+    pour_engine = config["fidelity"].get("pour_engine", "liggghts")
+    if pour_engine != "liggghts":
+        part["fidelity"]["pour_engine"] = pour_engine
     return sorted_keys(part)

@@ -1,6 +1,6 @@
 """One case in the compiled DEM, with the record of the LIGGGHTS path (:func:`pidpipe.liggghts.shake.run_case`).
 
-The same settings, case and packings (LIGGGHTS' pour), the k cells of ``fidelity.cells_per_run``
+The same settings, case and packings (poured by ``fidelity.pour_engine``), the k cells of ``fidelity.cells_per_run``
 integrated as one batch, and the same rules on the result: the steady-state verdict on the k
 cells' summed series (:func:`pidpipe.measurement.steady_state.assess_steady_state`), the mean cell's C_eq
 with a standard error that includes the packing scatter
@@ -22,7 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from pidpipe.cases import CaseSpec, regime
-from pidpipe.cell.packing import Packing, check_packing
+from pidpipe.cell.packing import Packing, check_packing, pour_engines
 from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.contacts import DISSIPATION_TERMS
@@ -111,7 +111,8 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
         "cycles": series.as_record(),
         "fidelity": fidelity_record(settings, cell_scene.timestep(case.freq_hz), transient,
                                     [packing.seed for packing in packings], ENGINE_NAME,
-                                    configured_transient, packings[0].pile_height_m),
+                                    configured_transient, packings[0].pile_height_m,
+                                    pour_engines(packings)),
         "engine": engine_record(wall_time, cpu_time, n_cycles * scene.steps_per_cycle),
         "dem": {
             "balance_dissipated_j": balance.sum(axis=0).tolist(),

@@ -167,6 +167,29 @@ def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
                 highest_z_m=energy[kernel.E_HIGHEST])
 
 
+def set_base_motion(ws: KernelWorkspace, scene: Scene) -> None:
+    """Move the cells with ``scene``'s base motion from the next call on, keeping the history.
+
+    The scene must be the workspace's own but for the acceleration amplitudes (the same
+    timestep, frequency, spheres and laws): a pour settles (0 g), is tapped and settles again in
+    one workspace, its contacts' history carried through.
+
+    Raises
+    ------
+    ValueError
+        ``scene`` differs from the workspace's in more than ``accel_g``.
+    """
+    params, flags = scene_parameters(scene)
+    amplitude = np.ascontiguousarray(scene.amplitude_m, dtype=float)
+    normals, offsets = wall_planes(scene.cell)
+    if (not np.array_equal(params, ws.params) or not np.array_equal(flags, ws.flags)
+            or not np.array_equal(offsets, ws.offsets) or not np.array_equal(normals, ws.normals)
+            or amplitude.shape != ws.amplitude.shape):
+        raise ValueError("set_base_motion: the scene differs from the workspace's in more than "
+                         "its acceleration amplitudes")
+    ws.amplitude = amplitude
+
+
 def accumulated_dissipation(ws: KernelWorkspace, dt: float) -> np.ndarray:
     """Energy dissipated since the last reset by term and contact type; (4, 2, n_batch), J."""
     s0, s1, s2, s3 = ws.terms_raw

@@ -60,7 +60,8 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
 
 #: Text columns that the campaign writes.
 OPTIONAL_TEXT_COLUMNS: tuple[str, ...] = ("case_id", "status", "flags", "regime", "regime_cells",
-                                          "signal", "solver", "solver_version", "liggghts_version")
+                                          "signal", "solver", "solver_version", "liggghts_version",
+                                          "pour_engine")
 
 #: Every column the campaign writes, required first.
 OPTIONAL_COLUMNS: tuple[str, ...] = OPTIONAL_TEXT_COLUMNS + OPTIONAL_NUMERIC_COLUMNS

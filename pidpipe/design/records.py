@@ -39,6 +39,7 @@ _SETTING_COLUMNS = {
     "rotation": ("fidelity", "rotation"),
     "friction": ("fidelity", "friction"),
     "seed": ("fidelity", "seed"),
+    "pour_engine": ("fidelity", "pour_engine"),
     "cells_per_run": ("fidelity", "cells_per_run"),
     "solver": ("solver",),
     "solver_version": ("engine", "version"),
@@ -53,7 +54,7 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
-    "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
+    "pour_engine", "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
     "solver_wall_time_s", "liggghts_wall_time_s", "message",
 )
 

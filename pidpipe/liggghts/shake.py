@@ -18,7 +18,7 @@ import numpy as np
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.layout import place_packings, side_by_side, write_cells_mesh
-from pidpipe.cell.packing import Packing, check_packing
+from pidpipe.cell.packing import Packing, check_packing, pour_engines
 from pidpipe.cell.patch import patch_box
 from pidpipe.cell.scene import CellScene
 from pidpipe.config.inspection import MovieSettings
@@ -229,7 +229,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         "cycles": series.as_record(),
         "fidelity": fidelity_record(settings, plan["timestep"], transient,
                                     [packing.seed for packing in packings], "liggghts",
-                                    configured_transient, packings[0].pile_height_m),
+                                    configured_transient, packings[0].pile_height_m,
+                                    pour_engines(packings)),
         "engine": {
             "name": "liggghts",
             "solver": "liggghts",

@@ -10,7 +10,7 @@ from pidpipe.physics.timestep import TimestepPlan
 
 def fidelity_record(settings: ShakeSettings, plan: TimestepPlan, transient_cycles: int,
                     seeds: Sequence[int], engine: str, configured_transient: int | None = None,
-                    pile_height_m: float | None = None) -> dict:
+                    pile_height_m: float | None = None, pour_engine: str | None = None) -> dict:
     """The settings a run was made with, as its record's ``fidelity``.
 
     Parameters
@@ -27,6 +27,8 @@ def fidelity_record(settings: ShakeSettings, plan: TimestepPlan, transient_cycle
     configured_transient, pile_height_m : optional
         The configured transient (cycles) and the first packing's pile height (m), for a run
         that was made; left out of a failed case's record.
+    pour_engine : str, optional
+        The engine that poured the run's packings (:func:`pidpipe.cell.packing.pour_engines`).
     """
     fidelity, sampling = settings.fidelity, settings.sampling
     seeds = [int(seed) for seed in seeds]
@@ -43,5 +45,7 @@ def fidelity_record(settings: ShakeSettings, plan: TimestepPlan, transient_cycle
                   friction=fidelity.friction, cells_per_run=len(seeds), seed=seeds[0], seeds=seeds)
     if pile_height_m is not None:
         record["pile_height_m"] = pile_height_m
+    if pour_engine is not None:
+        record["pour_engine"] = pour_engine
     record["engine"] = engine
     return record

@@ -46,8 +46,10 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
                   folder: str | Path) -> list:
     """The packings ``indices`` of a fill, poured on demand into ``folder`` and kept there.
 
-    A packing already in ``folder`` with the settings' seed and sphere count is reused; else it
-    is poured (:func:`pidpipe.liggghts.pour.pour`, seed ``fidelity.seed`` + index) and saved
+    A packing already in ``folder`` with the settings' seed, sphere count and pour engine is
+    reused (:func:`pidpipe.cell.packing.reusable`); else it is poured with
+    ``fidelity.pour_engine`` (:func:`pidpipe.dem.pouring.pour_with_engine`, seed
+    ``fidelity.seed`` + index) and saved
     atomically. A lock file per packing lets concurrent cases of the same fill pour it once;
     the same seed gives the same packing, so which case pours it changes nothing.
 
@@ -58,8 +60,8 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
     import fcntl
 
     from pidpipe.cases import format_number
-    from pidpipe.cell.packing import load_packing, save_packing
-    from pidpipe.liggghts.pour import pour
+    from pidpipe.cell.packing import load_packing, reusable, save_packing
+    from pidpipe.dem.pouring import pour_with_engine
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -71,11 +73,12 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
         with open(folder / f".{name}.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             packing = load_packing(path) if path.is_file() else None
-            if packing is None or packing.seed != seed + index or packing.n_spheres != wanted:
-                packing = pour(settings, fill_pct, index, folder / "work" / name)
+            if packing is None or not reusable(packing, seed + index, wanted,
+                                               settings.pouring.engine):
+                packing = pour_with_engine(settings, fill_pct, index, folder / "work" / name)
                 save_packing(packing, path)
-                logger.info("poured packing %s for a case's target: %d spheres, seed %d",
-                            name, packing.n_spheres, packing.seed)
+                logger.info("poured packing %s for a case's target with %s: %d spheres, seed %d",
+                            name, packing.pour_engine, packing.n_spheres, packing.seed)
         packings.append(packing)
     return packings
 

@@ -63,7 +63,7 @@ def prepare_host(config: dict, surrogate_path: str, designs_path: str, folder: s
     from pidpipe.design.bootstrap import has_sem, resampled_surrogates
     from pidpipe.design.optimisation_files import read_results_json
     from pidpipe.design.surrogate import load_surrogate
-    from pidpipe.liggghts.pour import replicate_packings
+    from pidpipe.dem.pouring import replicate_packings
     from pidpipe.loop.host import HostLoad
     from pidpipe.physics.contact import sphere_mass
 

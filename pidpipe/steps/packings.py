@@ -18,22 +18,23 @@ logger = logging.getLogger("pidpipe.campaign")
 
 def pour_packing(config: dict, fill_pct: float, replicate: int, packing_path: str,
                  workdir: str) -> None:
-    """Pour and settle the packing of one fill level and replicate; save it (JSON).
+    """Pour and settle the packing of one fill level and replicate with ``fidelity.pour_engine``; save it (JSON).
 
     A packing that does not fit is saved as well: :func:`check_packings` refuses it, with every
     other one that does not fit, in one message.
     """
     from pidpipe.cell.packing import save_packing
-    from pidpipe.liggghts.pour import pour
+    from pidpipe.dem.pouring import pour_with_engine
 
     fill_pct, replicate = float(fill_pct), int(replicate)
-    packing = pour(PourSettings.from_config(config), fill_pct, replicate, workdir)
+    packing = pour_with_engine(PourSettings.from_config(config), fill_pct, replicate, workdir)
     Path(packing_path).parent.mkdir(parents=True, exist_ok=True)
     save_packing(packing, packing_path)
-    logger.info("packing r=%g %% replicate %d: %d spheres, seed %d, pile %.2f mm (lid %.2f mm), "
-                "fastest sphere %.2g m/s; LIGGGHTS files in %s", fill_pct, replicate,
-                packing.n_spheres, packing.seed, packing.pile_height_m * 1e3,
-                packing.lid_height_m * 1e3, packing.max_speed_m_s, workdir)
+    logger.info("packing r=%g %% replicate %d, poured by %s: %d spheres, seed %d, pile %.2f mm "
+                "(lid %.2f mm), fastest sphere %.2g m/s; engine files (LIGGGHTS) in %s", fill_pct,
+                replicate, packing.pour_engine, packing.n_spheres, packing.seed,
+                packing.pile_height_m * 1e3, packing.lid_height_m * 1e3, packing.max_speed_m_s,
+                workdir)
 
 
 def check_packings(packing_paths: list[str], case_ids: list[str], report_path: str,
@@ -75,6 +76,7 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
             problems.append(f"{exc} [{len(cases)} case(s): {', '.join(cases)}]" if cases else str(exc))
         rows.append({"packing_id": packing_id, "fill_pct": packing.fill_pct,
                      "n_spheres": packing.n_spheres, "seed": packing.seed,
+                     "pour_engine": packing.pour_engine,
                      "pile_height_mm": round(packing.pile_height_m * 1e3, 3),
                      "lid_height_mm": round(packing.lid_height_m * 1e3, 3),
                      "max_speed_m_s": packing.max_speed_m_s,

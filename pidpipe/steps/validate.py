@@ -80,7 +80,7 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
         has nothing to be checked against), or a packing it shook is missing or not the one it
         shook.
     """
-    from pidpipe.cell.packing import load_packing
+    from pidpipe.cell.packing import load_packing, pour_engines
     from pidpipe.design.records import read_record
     from pidpipe.liggghts.shake import write_record
 
@@ -92,6 +92,11 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
     settings = ShakeSettings.from_config(config)
     case = CaseSpec.from_id(liggghts["case_id"])
     pilot = [load_packing(path) for path in packing_paths]
+    poured_by = liggghts.get("fidelity", {}).get("pour_engine")
+    if poured_by is not None and poured_by != pour_engines(pilot):
+        raise PidpipeError(f"{liggghts_record_path} shook packings poured by {poured_by}, but "
+                           f"{', '.join(str(p) for p in packing_paths)} were poured by "
+                           f"{pour_engines(pilot)}: rerun the campaign first")
     runs = [run for run in (liggghts.get("target") or {}).get("runs", []) if run.get("used")]
     if not runs:
         seeds = liggghts.get("fidelity", {}).get("seeds")

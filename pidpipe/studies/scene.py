@@ -349,7 +349,7 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
     """
     import csv
 
-    from pidpipe.liggghts.pour import replicate_packings
+    from pidpipe.dem.pouring import replicate_packings
 
     settings = config["scene"]
     shaking, pouring = ShakeSettings.from_config(config), PourSettings.from_config(config)

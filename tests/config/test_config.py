@@ -29,6 +29,7 @@ BAD = [
     ("missing material", lambda c: c.update(particle_material="steel"), ["particle_material", "steel", "acrylic"]),
     ("pair of an unknown material", lambda c: c["pairs"].append({"materials": ["steel", "acrylic"], "friction": 0.1, "restitution": 0.5}),
      ["pairs[3].materials", "steel"]),
+    ("unknown pour engine", lambda c: c["fidelity"].update(pour_engine="lammps"), ["fidelity.pour_engine", "'lammps'", "liggghts"]),
     ("wrong type", lambda c: c["fidelity"].update(measured_cycles="forty"), ["fidelity.measured_cycles", "'forty'", "integer"]),
     ("unknown key", lambda c: c["fidelity"].update(timestpe_rayleigh_fraction=0.1), ["timestpe_rayleigh_fraction", "not a known key", "timestep_rayleigh_fraction"]),
     ("empty grid", lambda c: c["grid"].update(accel_g=[]), ["grid.accel_g", "[]", "at least 1"]),

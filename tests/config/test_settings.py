@@ -16,10 +16,12 @@ from pidpipe.config.settings import (
     Fill,
     Materials,
     PourSettings,
+    Pouring,
     Sampling,
     ShakeSettings,
 )
 from pidpipe.config.stages import stage_config
+from pidpipe.errors import ConfigError
 from pidpipe.physics.contact import rayleigh_time
 
 
@@ -31,6 +33,25 @@ def test_every_stage_parses_its_own_part_of_the_config():
     assert pour == PourSettings.from_config(config)
     assert shake.coupon_n_cells == 441 and shake.sampling.cells_per_run == 7
     assert pour.pouring.seed == 20261123 and pour.fill.full_cell_spheres == 21
+
+
+def test_the_pour_engine_defaults_to_liggghts_and_reaches_both_pouring_stages_only_when_not():
+    config = load_config()
+    assert config["fidelity"]["pour_engine"] == "liggghts"
+    assert PourSettings.from_config(config).pouring.engine == "liggghts"
+    # a LIGGGHTS campaign's params stay as they were (nothing reruns)
+    for stage in ("packing", "case"):
+        assert "pour_engine" not in stage_config(config, stage)["fidelity"]
+    config["fidelity"]["pour_engine"] = "dem"
+    for stage in ("packing", "case"):        # the case stage pours the further packings
+        part = stage_config(config, stage)
+        assert part["fidelity"]["pour_engine"] == "dem"
+        assert PourSettings.from_config(part).pouring.engine == "dem"
+
+
+def test_a_pour_engine_that_does_not_exist_is_refused():
+    with pytest.raises(ConfigError, match="fidelity.pour_engine"):
+        Pouring(0.15, 1, "lammps")
 
 
 def test_a_stage_part_without_a_key_the_stage_reads_fails_at_once():

@@ -1,5 +1,6 @@
 """The reduced campaign (.test/config.yaml) with ``engine: dem``: every case shaken by the
-compiled DEM on LIGGGHTS' pour, through the same table, surrogate and optimum."""
+compiled DEM on LIGGGHTS' pour, through the same table, surrogate and optimum; then poured by
+the DEM too (``fidelity.pour_engine: dem``)."""
 
 from __future__ import annotations
 
@@ -56,3 +57,21 @@ def test_switching_the_engine_reruns_every_case_but_no_pour(dem_campaign):
         write_config(dem_campaign, engine="dem")
     assert jobs.get("simulate_case") == 8
     assert "pour_packing" not in jobs
+
+
+def test_pouring_in_the_dem_too_repours_every_packing_and_reruns_every_case(dem_campaign):
+    """Last in this module: it leaves the campaign poured by the DEM (fidelity.pour_engine)."""
+    write_config(dem_campaign, engine="dem", fidelity={"pour_engine": "dem"})
+    jobs = planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)
+    assert jobs.get("pour_packing") == 2 and jobs.get("simulate_case") == 8
+    run = snakemake(dem_campaign)
+    assert run.returncode == 0, run.stdout[-5000:]
+    for fill in (25, 50):
+        packing = json.loads((dem_campaign / "results" / "packings" / f"r{fill}pct_rep0.json").read_text())
+        assert packing["pour_engine"] == "dem"
+    check = pd.read_csv(dem_campaign / "results" / "packings" / "check.tsv", sep="\t")
+    assert (check["pour_engine"] == "dem").all() and (check["verdict"] == "ok").all()
+    table = pd.read_csv(dem_campaign / "results" / "ceq_table.csv")
+    assert len(table) == 8 and (table["pour_engine"] == "dem").all()
+    assert (table["solver"] == "numba-dem").all() and (table["status"] == "ok").sum() >= 5
+    assert "pour_packing" not in planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)

@@ -1,4 +1,4 @@
-# Stage 1: pour and settle one packing per fill level and replicate, then check them all.
+# Stage 1: pour and settle one packing per fill level and replicate (fidelity.pour_engine), then check them all.
 
 
 rule pour_packing:

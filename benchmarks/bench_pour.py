@@ -1,0 +1,135 @@
+"""CPU per pour of both engines (fidelity.pour_engine: liggghts | dem), and their piles, in one run.
+
+For each default fill (25, 50, 75, 90 %) and replicates 0 .. ``--seeds``-1, the packing is
+poured by LIGGGHTS (:func:`pidpipe.liggghts.pour.pour`) and by the compiled DEM
+(:func:`pidpipe.dem.pour.pour`) with the default config (dt = 0.2 t_R at the 100 Hz tapping,
+settle 0.15 s, tap 20 cycles, settle 0.15 s, further settling if needed). Reported per fill
+and engine:
+
+- CPU per pour in this process, s (mean and standard deviation over the seeds): LIGGGHTS' child
+  process and this process's own share (deck, parsing); the DEM's this process's, after one
+  warm-up pour that loads the compiled kernel;
+- CPU of one pour in a fresh Python process, as a campaign's ``pour_packing`` job makes it
+  (imports, the DEM's kernel loaded from Numba's cache, the pour), replicate 0;
+- the piles: mean pile height and centre-of-mass height above the floor (mm, with standard
+  errors over the seeds) of each engine and their difference, the pours that needed further
+  settling, and the fastest sphere of any pour.
+
+The machine is shared: CPU time, not wall time, is compared, and the load average is printed.
+
+Run: .venv/bin/python benchmarks/bench_pour.py [--seeds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from _record import append
+
+from pidpipe.cell.pour_protocol import plan_pour
+from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings
+
+FILLS = (25.0, 50.0, 75.0, 90.0)
+ENGINES = ("liggghts", "dem")
+
+FRESH_POUR = """
+import sys
+from pidpipe.config import load_config
+from pidpipe.config.settings import PourSettings
+from pidpipe.dem.pouring import pour_with_engine
+config = load_config()
+config["fidelity"]["pour_engine"] = sys.argv[1]
+pour_with_engine(PourSettings.from_config(config), float(sys.argv[2]), 0, sys.argv[3])
+"""
+
+
+def cpu_s() -> float:
+    """CPU time of this process and its finished children, s."""
+    own, children = (resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def fresh_process_cpu_s(engine: str, fill: float, workdir: Path) -> float:
+    """CPU of one pour in a new Python process (and its LIGGGHTS child), s."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([sys.executable, "-c", FRESH_POUR, engine, str(fill), str(workdir)], check=True,
+                   capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=10, help="replicates poured per fill and engine")
+    args = parser.parse_args()
+    from pidpipe.dem.pour import pour as dem_pour
+    from pidpipe.liggghts.pour import pour as liggghts_pour
+
+    pour = {"liggghts": liggghts_pour, "dem": dem_pour}
+    settings = PourSettings.from_config(load_config())
+    load_start, wall_start = os.getloadavg()[0], time.perf_counter()
+    dem_pour(settings, FILLS[0], 0)                 # warm-up: loads (or compiles) the kernel
+    results = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        scratch = Path(scratch)
+        for fill in FILLS:
+            for engine in ENGINES:
+                rows = []
+                for replicate in range(args.seeds):
+                    began = cpu_s()
+                    packing = pour[engine](settings, fill, replicate, scratch / f"{engine}{fill:g}_{replicate}")
+                    centres = packing.centres()
+                    rows.append((cpu_s() - began, packing.pile_height_m,
+                                 centres[:, 2].mean() + 0.5 * packing.lid_height_m,
+                                 packing.settle_time_s, packing.max_speed_m_s, packing.n_spheres))
+                fresh = fresh_process_cpu_s(engine, fill, scratch / f"fresh_{engine}{fill:g}")
+                results[fill, engine] = (np.array(rows), fresh)
+                print(f"r={fill:g} %, {engine}: {np.mean([r[0] for r in rows]):.2f} s per pour, "
+                      f"fresh process {fresh:.2f} s", flush=True)
+    load_end, wall = os.getloadavg()[0], time.perf_counter() - wall_start
+
+    lines = [f"{args.seeds} seeds (replicates 0-{args.seeds - 1}) per fill and engine, default config "
+             f"(dt 0.2 t_R, settle 0.15 s, 20 taps at 100 Hz, 10 g); load average {load_start:.1f} "
+             f"at the start, {load_end:.1f} at the end; wall {wall:.0f} s.", "",
+             "| fill % | spheres | LIGGGHTS CPU s per pour | DEM CPU s per pour | ratio | fresh process: LIGGGHTS s | DEM s |",
+             "|---|---|---|---|---|---|---|"]
+    for fill in FILLS:
+        (lig, lig_fresh), (dem, dem_fresh) = results[fill, "liggghts"], results[fill, "dem"]
+        lines.append(f"| {fill:g} | {int(lig[0, 5])} | {lig[:, 0].mean():.2f} ± {lig[:, 0].std(ddof=1):.2f} | "
+                     f"{dem[:, 0].mean():.2f} ± {dem[:, 0].std(ddof=1):.2f} | "
+                     f"{lig[:, 0].mean() / dem[:, 0].mean():.1f} | {lig_fresh:.2f} | {dem_fresh:.2f} |")
+    lines += ["", "(± is the standard deviation over the seeds; fresh process: one pour, replicate 0, "
+              "in a new Python process as a pour_packing job makes it, imports and the kernel's "
+              "cache load included.)", "",
+              "| fill % | pile mm LIGGGHTS | pile mm DEM | DEM - LIGGGHTS mm | centre of mass mm LIGGGHTS | DEM | DEM - LIGGGHTS mm | further settling (L/D) | fastest sphere m/s |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    n = args.seeds
+    for fill in FILLS:
+        lig, dem = results[fill, "liggghts"][0], results[fill, "dem"][0]
+        cells = []
+        for column in (1, 2):
+            a, b = 1e3 * lig[:, column], 1e3 * dem[:, column]
+            se = np.sqrt((a.var(ddof=1) + b.var(ddof=1)) / n)
+            cells += [f"{a.mean():.2f} ± {a.std(ddof=1) / np.sqrt(n):.2f}",
+                      f"{b.mean():.2f} ± {b.std(ddof=1) / np.sqrt(n):.2f}",
+                      f"{b.mean() - a.mean():+.2f} ± {se:.2f}"]
+        configured = plan_pour(settings, fill, 0).settle_period_s
+        further = [int(np.sum(rows[:, 3] > 1.5 * configured)) for rows in (lig, dem)]
+        lines.append(f"| {fill:g} | {' | '.join(cells)} | {further[0]}/{further[1]} | "
+                     f"{max(lig[:, 4].max(), dem[:, 4].max()):.1g} |")
+    lines += ["", "(± is the standard error of the mean over the seeds, and of the difference.)"]
+    append("Pours: LIGGGHTS against the compiled DEM (issue 13)",
+           f"python benchmarks/bench_pour.py --seeds {args.seeds}", lines)
+
+
+if __name__ == "__main__":
+    main()
