@@ -57,6 +57,12 @@ N_ENERGY_ROWS = 8
 # rows of the contact scratch of _forces_into: distance^2 and then 1 / distance (sphere pairs),
 # the overlap, its square and fourth root, the separation vector (sphere pairs)
 W_R, W_DL, W_SQ, W_Q, W_DX, W_DY, W_DZ, N_WORK = 0, 1, 2, 3, 4, 5, 6, 7
+# rows of the bed-motion output of run: sums over each window (the walls' work, J; the floor's
+# upward force on the spheres and theirs on the lid, N, summed over the samples; the samples),
+# then values at the window boundaries (K + K_rot + P, J; heights above the floor of the centre
+# of mass and of the lowest and highest sphere centre, m)
+M_WORK, M_FLOOR, M_LID, M_SAMPLES, M_ENERGY, M_CENTRE, M_BOTTOM, M_TOP = 0, 1, 2, 3, 4, 5, 6, 7
+N_MOTION_ROWS = 8
 
 
 @njit(cache=True, error_model="numpy")
@@ -380,7 +386,8 @@ def set_up(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, 
 @njit(cache=True, error_model="numpy")
 def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
         offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work, acc_gross,
-        reference, out_work, out_gross, out_terms, out_energy):
+        reference, out_work, out_gross, out_terms, out_energy, motion_window, motion_every,
+        out_motion):
     """Advance every cell by ``n_cycles * steps_per_cycle`` steps from step ``step0``.
 
     Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
@@ -403,6 +410,12 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     reference : (nb,) zero of the potential energy (a height, m)
     out_work, out_gross : (nb, n_cycles); out_terms : (4, 2, nb, n_cycles), J, per cycle
     out_energy : (8, nb, n_cycles + 1) energies and heights at the cycle boundaries (rows E_*)
+    motion_window, motion_every : steps per window of the bed-motion sampling (0: off) and
+        steps between the samples of the floor and lid forces (a divisor of motion_window)
+    out_motion : (N_MOTION_ROWS, nb, n_windows + 1), rows M_*: window w covers steps
+        w * motion_window + 1 .. (w + 1) * motion_window from step 0 and boundary w is the end
+        of step w * motion_window; only the windows and boundaries this call reaches are
+        written (sums are added to), and steps past column n_windows are not sampled
     """
     _pack(x, v, w, f, t, body)
     n = x.shape[2]
@@ -418,8 +431,14 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     u_unit = np.empty(steps_per_cycle)
     half_phase = 0.5 * omega * dt
     pairs, work_rows = _scratch(n)
+    floor_k, lid_k = _floor_and_lid(normals)
+    floor_z = -offsets[floor_k]
+    n_windows = out_motion.shape[2] - 1
     for b in range(n_batch):
         _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, 0])
+        if motion_window > 0 and step0 % motion_window == 0 and step0 // motion_window <= n_windows:
+            zw0 = amplitude[b] * (math.cos(omega * (step0 * dt)) - 1.0)
+            _bed_point(body[b], p, reference[b], floor_z + zw0, out_motion[:, b, step0 // motion_window])
     for cycle in range(n_cycles):
         first = step0 + cycle * steps_per_cycle
         for s in range(steps_per_cycle):
@@ -473,6 +492,19 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                     if rotation:
                         for c in range(3):
                             cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                if motion_window > 0:
+                    step = first + s + 1
+                    window = (step - 1) // motion_window
+                    if window < n_windows:
+                        out_motion[M_WORK, b, window] += work
+                        if step % motion_every == 0:
+                            floor_up, lid_up = _floor_and_lid_forces(cell, history, p, normals,
+                                                                     floor_k, lid_k)
+                            out_motion[M_FLOOR, b, window] += floor_up
+                            out_motion[M_LID, b, window] += lid_up
+                            out_motion[M_SAMPLES, b, window] += 1.0
+                        if step % motion_window == 0:
+                            _bed_point(cell, p, reference[b], floor_z + zw, out_motion[:, b, window + 1])
             wall_fz[b] = fz_prev
             acc_work[b] = work_sum
             acc_gross[b] = gross_sum
@@ -487,6 +519,61 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                 out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
             _ledger(cell, history, p, rotation, reference[b], out_energy[:, b, cycle + 1])
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
+def _floor_and_lid(normals):
+    """Indices of the floor (inward normal up) and the lid (down) among the cell's planes."""
+    floor_k = lid_k = 0
+    for k in range(normals.shape[0]):
+        if normals[k, 2] > normals[floor_k, 2]:
+            floor_k = k
+        if normals[k, 2] < normals[lid_k, 2]:
+            lid_k = k
+    return floor_k, lid_k
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _floor_and_lid_forces(body, hist, p, normals, floor_k, lid_k):
+    """The floor's upward force on one cell's spheres and theirs on the lid, N, from the wall
+    contacts' state after the last force evaluation (normal force and -F_t as stored)."""
+    n = body.shape[0]
+    out0 = out1 = 0.0
+    for i in range(n):
+        for which in range(2):
+            k = floor_k if which == 0 else lid_k
+            dl = hist[i, n + k, HDELTA]
+            if not dl > 0.0:
+                continue
+            fn = math.sqrt(dl) * p[PW + A_N] * dl - hist[i, n + k, HD]
+            fz = normals[k, 2] * fn - hist[i, n + k, HT + 2]
+            if which == 0:
+                out0 += fz
+            else:
+                out1 -= fz
+    return out0, out1
+
+
+@njit(cache=True, error_model="numpy")
+def _bed_point(body, p, reference, floor_z, out):
+    """One cell's K + K_rot + P (J) and the heights above the floor at ``floor_z`` (m) of its
+    centre of mass and lowest and highest sphere centre, into ``out[M_ENERGY:M_TOP + 1]``."""
+    n = body.shape[0]
+    trans = rot = heights = 0.0
+    lowest, highest = body[0, BX + 2], body[0, BX + 2]
+    for i in range(n):
+        z = body[i, BX + 2]
+        lowest = min(lowest, z)
+        highest = max(highest, z)
+        heights += z
+        for c in range(3):
+            trans += body[i, BV + c] * body[i, BV + c]
+            rot += body[i, BW + c] * body[i, BW + c]
+    out[M_ENERGY] = (0.5 * p[MASS] * trans + 0.5 * p[INERTIA] * rot
+                     + p[WEIGHT] * (heights - n * reference))
+    out[M_CENTRE] = heights / n - floor_z
+    out[M_BOTTOM] = lowest - floor_z
+    out[M_TOP] = highest - floor_z
 
 
 @njit(cache=True, error_model="numpy")

@@ -52,12 +52,18 @@ def _keys(record: dict, prefix: str = "") -> set[str]:
 
 def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
     liggghts, dem = both
-    # not compared: LIGGGHTS' own loop/CPU figures, and the bed's motion within the cycle
-    # (``motion``, issue 17), which only the LIGGGHTS deck samples so far: the table then takes
-    # a DEM case's regime from its acceleration (pidpipe.design.records)
-    missing = {key for key in _keys(liggghts) - _keys(dem)
-               if not key.startswith(("engine.liggghts_", "motion"))}
+    # not compared: LIGGGHTS' own loop/CPU figures
+    missing = {key for key in _keys(liggghts) - _keys(dem) if not key.startswith("engine.liggghts_")}
     assert not missing
+    # the bed's motion within the cycle (issue 17), sampled by both engines alike
+    assert _keys(dem["motion"]) == _keys(liggghts["motion"])
+    for key in ("window_steps", "phase_bins"):
+        assert dem["motion"][key] == liggghts["motion"][key]
+    for name, quantity in liggghts["motion"]["profile"].items():
+        if isinstance(quantity, dict):
+            assert len(dem["motion"]["profile"][name]["mean"]) == len(quantity["mean"]), name
+    assert dem["motion"]["cell_features"][0].keys() == liggghts["motion"]["cell_features"][0].keys()
+    assert dem["regime"] == dem["motion"]["cell_regimes"][0]
     assert liggghts["solver"] == "liggghts" and dem["solver"] == "numba-dem"
     assert dem["engine"]["name"] == dem["fidelity"]["engine"] == "dem"
     assert liggghts["engine"]["name"] == liggghts["fidelity"]["engine"] == "liggghts"
