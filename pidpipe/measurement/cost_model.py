@@ -10,9 +10,10 @@ each. LIGGGHTS' cost per step is mostly its mesh-wall fix (``notes/liggghts-3.8.
 grows with the cells' triangles (k) more than with the spheres. A pour costs
 ``pour_overhead_s + pour_per_sphere_s * s``. The coefficients are fitted to measured runs
 (``benchmarks/bench_cells.py --cost``) and stored with the machine, date and command in
-``cost_models.json`` next to this module, one entry per engine. The compiled DEM engine
-(``engine: dem``) has its slot there (``dem``), empty until its benchmark fills it; an engine
-without a stored model is planned with :func:`scaled_from_pilot`.
+``cost_models.json`` next to this module, one entry per engine: ``liggghts``, and ``dem`` for
+the compiled DEM (``benchmarks/bench_cells.py --cost --engine dem``; its cost per step is
+mostly per sphere, with no mesh). An engine without a stored model is planned with
+:func:`scaled_from_pilot`.
 """
 
 from __future__ import annotations
