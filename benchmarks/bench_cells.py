@@ -106,7 +106,8 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> Non
                 points.append({"fill_pct": fill, "n_spheres": packings[0].n_spheres, "freq_hz": freq,
                                "cells": k, "steps": steps, "cpu_s": cpu})
                 print(points[-1], flush=True)
-    model = fit_cost_model(points, pours, engine=engine, machine=machine(), command=command)
+    model = fit_cost_model(points, pours, engine=engine, machine=machine(), command=command,
+                           pairs=engine == "dem")
     path = store_cost_model(model)
     for p in points:
         lines.append(f"| {p['fill_pct']:g} | {p['n_spheres']} | {p['freq_hz']:g} | {p['cells']} | "
