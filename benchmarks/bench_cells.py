@@ -21,6 +21,15 @@ reads (:mod:`pidpipe.measurement.allocation`).
 
 Run: .venv/bin/python benchmarks/bench_cells.py --cost [packings folder]   (packings are kept
 there and reused; default a temporary folder)
+
+With ``--cost --engine dem`` it fits the compiled DEM's cost model instead (entry ``dem``): the
+same fills and frequencies with k = 1, 2, 4, 7, 14, 28 (:data:`DEM_COST_RUNS`; the DEM runs any
+number of cells as one batch), each run's CPU time the DEM case's own (``run_dem_case``: set-up,
+kernel, ledgers and record, the motion sampling included), each the smaller of
+:data:`DEM_REPETITIONS` repetitions (the runs take 0.1-3 s); the pours are LIGGGHTS' (the DEM
+shakes LIGGGHTS' packings), timed as for the LIGGGHTS model.
+
+Run: .venv/bin/python benchmarks/bench_cells.py --cost --engine dem [packings folder]
 """
 
 from __future__ import annotations
@@ -49,21 +58,41 @@ COST_RUNS = ((50.0, 1000.0, COST_CELLS), (50.0, 500.0, COST_CELLS), (90.0, 1000.
              (25.0, 1000.0, (1, 7, 24)))
 """(fill %, frequency Hz, cells per run) of the cost measurement, at 5 g."""
 
+DEM_COST_CELLS = (1, 2, 4, 7, 14, 28)
+DEM_COST_RUNS = ((50.0, 1000.0, DEM_COST_CELLS), (50.0, 500.0, DEM_COST_CELLS),
+                 (90.0, 1000.0, (1, 7, 28)), (25.0, 1000.0, (1, 7, 28)))
+"""(fill %, frequency Hz, cells per run) of the DEM's cost measurement, at 5 g."""
+DEM_REPETITIONS = 3
 
-def measure_cost() -> None:
-    """Measure the CPU time of runs of k cells and of pours; fit and store the LIGGGHTS cost model."""
+
+def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> None:
+    """Measure the CPU time of runs of k cells and of pours; fit and store ``engine``'s cost model."""
     from _record import machine
 
     from pidpipe.cell.scene import CellScene
     from pidpipe.measurement.cost_model import fit_cost_model, store_cost_model
 
     config = load_config()
+    if engine == "dem":
+        from pidpipe.dem.case import run_dem_case
+
+        def cpu_of_run(case, packings, workdir):
+            run_dem_case(ShakeSettings.from_config(config), case, packings)      # compiled
+            return min(run_dem_case(ShakeSettings.from_config(config), case, packings)
+                       ["engine"]["cpu_time_s"] for _ in range(DEM_REPETITIONS))
+        runs = DEM_COST_RUNS
+    else:
+        def cpu_of_run(case, packings, workdir):
+            return run_case(ShakeSettings.from_config(config), case, packings,
+                            workdir)["engine"]["liggghts_cpu_time_s"]
+        runs = COST_RUNS
+    command = "python benchmarks/bench_cells.py --cost" + (" --engine dem" if engine == "dem" else "")
     points, pours = [], []
     lines = ["| fill % | spheres/cell | f Hz | cells k | steps | CPU s | us per step | model s |",
              "|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(sys.argv[2]) if len(sys.argv) > 2 else Path(scratch) / "packings"
-        for fill, freq, cell_counts in COST_RUNS:
+        folder = Path(folder_arg) if folder_arg else Path(scratch) / "packings"
+        for fill, freq, cell_counts in runs:
             packings, pour_cpu = replicate_packings(PourSettings.from_config(config), fill, max(cell_counts), folder, workers=1)
             if fill not in {p["fill_pct"] for p in pours}:
                 pours += [{"fill_pct": fill, "n_spheres": packings[0].n_spheres, "cpu_s": cpu}
@@ -73,13 +102,12 @@ def measure_cost() -> None:
             steps = (CellScene.from_config(config).timestep(freq).steps_per_cycle
                      * (sampling.transient_cycles_at(freq) + sampling.measured_cycles))
             for k in cell_counts:
-                record = run_case(ShakeSettings.from_config(config), case, packings[:k], Path(scratch) / f"r{fill:g}_f{freq:g}_k{k}")
+                cpu = cpu_of_run(case, packings[:k], Path(scratch) / f"r{fill:g}_f{freq:g}_k{k}")
                 points.append({"fill_pct": fill, "n_spheres": packings[0].n_spheres, "freq_hz": freq,
-                               "cells": k, "steps": steps,
-                               "cpu_s": record["engine"]["liggghts_cpu_time_s"]})
+                               "cells": k, "steps": steps, "cpu_s": cpu})
                 print(points[-1], flush=True)
-    model = fit_cost_model(points, pours, engine="liggghts", machine=machine(),
-                           command="python benchmarks/bench_cells.py --cost")
+    model = fit_cost_model(points, pours, engine=engine, machine=machine(), command=command,
+                           pairs=engine == "dem")
     path = store_cost_model(model)
     for p in points:
         lines.append(f"| {p['fill_pct']:g} | {p['n_spheres']} | {p['freq_hz']:g} | {p['cells']} | "
@@ -88,13 +116,19 @@ def measure_cost() -> None:
     lines += ["", f"Model (written to {path.name}): {model.describe()}",
               f"Pours: {len(pours)}, CPU s each {np.mean([p['cpu_s'] for p in pours]):.2f} mean, "
               f"{np.min([p['cpu_s'] for p in pours]):.2f}-{np.max([p['cpu_s'] for p in pours]):.2f}."]
-    append("Cost of a run of k cells (the allocation's cost model, LIGGGHTS)",
-           "python benchmarks/bench_cells.py --cost", lines)
+    append(f"Cost of a run of k cells (the allocation's cost model, "
+           f"{'LIGGGHTS' if engine == 'liggghts' else 'compiled DEM'})", command, lines)
 
 
 def main() -> None:
     if sys.argv[1:2] == ["--cost"]:
-        measure_cost()
+        rest = sys.argv[2:]
+        engine = "liggghts"
+        if rest[:1] == ["--engine"]:
+            engine, rest = rest[1], rest[2:]
+            if engine not in ("liggghts", "dem"):
+                raise SystemExit(f"--engine {engine}: expected liggghts or dem")
+        measure_cost(engine, rest[0] if rest else None)
         return
     cells = int(sys.argv[1]) if len(sys.argv) > 1 else 7
     freqs = [float(f) for f in sys.argv[2:]] or [100.0, 500.0, 1000.0]

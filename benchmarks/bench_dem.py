@@ -4,21 +4,25 @@ Scenes: 1, 7 and 28 cells of 11 and of 19 acrylic spheres (50 % and 90 % fill; o
 each size poured by LIGGGHTS, repeated in every cell), 500 Hz, 5 g, the default fidelity
 (dt = 0.2 t_R, rotation and friction on), ledgers on in both (the compiled DEM's per-cycle
 ledgers; LIGGGHTS' deck with its energy bookkeeping, as a case runs it). Each engine shakes
-the scene for 1 + ``--cycles`` cycles. Reported: particle-steps per second (spheres x cells
-x steps / time) of each, from the compiled DEM's wall time of the timed cycles (after one
-warm-up cycle) and LIGGGHTS' own loop time, and their ratio; the compile time of the kernel
+the scene for 1 + N cycles, N at least ``--cycles`` and enough that the timed cycles cost
+at least ``--min-cpu`` CPU seconds (the DEM's N from its warm-up cycles, LIGGGHTS' from its
+stored cost model, :mod:`pidpipe.measurement.cost_model`), so that each timing is long enough
+to trust on a shared machine; the two engines may then run different N. Reported: particle-steps per second (spheres x cells
+x steps / time) of each, from the compiled DEM's wall time of the timed cycles (after
+warm-up cycles) and LIGGGHTS' own loop time, and their ratio; the compile time of the kernel
 on the first call in a fresh process with an empty Numba cache and with the cache filled.
 
 The machine is shared: the load average is printed with the figures, and CPU time is given
 next to wall time for the compiled DEM.
 
-Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--no-liggghts]
+Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--min-cpu 2] [--no-liggghts]
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import math
 import os
 import subprocess
 import sys
@@ -69,11 +73,22 @@ def compile_times(packing_csv: Path) -> dict:
     return out
 
 
-def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int) -> dict:
-    """Compiled DEM: wall and CPU time of ``cycles`` cycles after one warm-up cycle."""
+WARM_UP_CYCLES = 2
+"""Cycles the compiled DEM runs before the timed ones (the first compiles or loads the kernel;
+their CPU time sets how many cycles reach ``--min-cpu``)."""
+
+
+def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int,
+             min_cpu_s: float = 0.0) -> dict:
+    """Compiled DEM: wall and CPU time of at least ``cycles`` cycles (more if they would take
+    less than ``min_cpu_s`` CPU seconds) after the warm-up cycles."""
     scene = dem_scene(CellScene.from_config(config), FREQ_HZ, [ACCEL_G] * n_cells)
     scene, state, ws = start(scene, np.stack([positions] * n_cells))
     run_cycles(scene, state, ws, 1)
+    cpu = time.process_time()
+    run_cycles(scene, state, ws, WARM_UP_CYCLES - 1)
+    per_cycle = (time.process_time() - cpu) / (WARM_UP_CYCLES - 1)
+    cycles = max(cycles, math.ceil(min_cpu_s / max(per_cycle, 1e-9)))
     wall, cpu = time.perf_counter(), time.process_time()
     run_cycles(scene, state, ws, cycles)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
@@ -82,6 +97,20 @@ def time_dem(config: dict, positions: np.ndarray, n_cells: int, cycles: int) -> 
     return dict(steps=steps, seconds=wall, cpu_seconds=cpu,
                 particle_steps_per_s=particle_steps / wall,
                 cpu_particle_steps_per_s=particle_steps / cpu)
+
+
+def liggghts_cycles(config: dict, n_spheres: int, n_cells: int, cycles: int,
+                    min_cpu_s: float) -> int:
+    """At least ``cycles``, and enough that LIGGGHTS' stored cost model predicts ``min_cpu_s``
+    CPU seconds for them."""
+    from pidpipe.measurement.cost_model import load_cost_model
+
+    model = load_cost_model("liggghts")
+    if model is None or min_cpu_s <= 0.0:
+        return cycles
+    steps = CellScene.from_config(config).timestep(FREQ_HZ).steps_per_cycle
+    per_cycle = model.run_cpu_s(n_cells, n_spheres, steps) - model.overhead_s
+    return max(cycles, math.ceil(min_cpu_s / per_cycle))
 
 
 def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Path) -> dict:
@@ -122,6 +151,8 @@ def runs_note(runs: int) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=4, help="timed cycles per scene")
+    parser.add_argument("--min-cpu", type=float, default=0.0,
+                        help="least CPU seconds of each engine's timed cycles (more cycles)")
     parser.add_argument("--no-liggghts", action="store_true", help="time the compiled DEM only")
     args = parser.parse_args()
     from pidpipe.liggghts.pour import pour
@@ -141,12 +172,14 @@ def main() -> None:
         rows = []
         for n, packing in packings.items():
             for k in CELLS:
-                dem = time_dem(config, packing.centres(), k, args.cycles)
+                dem = time_dem(config, packing.centres(), k, args.cycles, args.min_cpu)
                 lig = None if args.no_liggghts else time_liggghts(
-                    config, packing, k, args.cycles, scratch / f"shake{n}_{k}")
+                    config, packing, k, liggghts_cycles(config, n, k, args.cycles, args.min_cpu),
+                    scratch / f"shake{n}_{k}")
                 rows.append((n, k, dem, lig))
                 print(n, k, dem, lig, flush=True)
-    lines.append(f"Scene: 500 Hz, 5 g, default fidelity, {args.cycles} timed cycles; packings "
+    lines.append(f"Scene: 500 Hz, 5 g, default fidelity, at least {args.cycles} timed cycles "
+                 f"and {args.min_cpu:g} CPU s per timing (steps columns: each engine's); packings "
                  "poured by LIGGGHTS (seed fidelity.seed), one per size, repeated in every cell. "
                  f"Load average {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} at the "
                  f"end, on {os.cpu_count()} cores.")
@@ -172,7 +205,7 @@ def main() -> None:
     for label, (imported, first_call) in compiled.items():
         lines.append(f"- {label}: import {imported:.2f} s, first call {first_call:.2f} s")
     append("Compiled DEM against LIGGGHTS", "python benchmarks/bench_dem.py"
-           + f" --cycles {args.cycles}" + (" --no-liggghts" if args.no_liggghts else ""), lines)
+           + f" --cycles {args.cycles} --min-cpu {args.min_cpu:g}" + (" --no-liggghts" if args.no_liggghts else ""), lines)
 
 
 if __name__ == "__main__":

@@ -333,7 +333,8 @@ class ShakeSettings:
 
     Built from the case stage's part of the config (``stage_config(config, "case")``).
     ``engine`` is ``liggghts`` (the reference) or ``dem`` (the compiled in-repo DEM); ``motion``
-    how finely a LIGGGHTS run samples the bed's motion within the cycle (None: not at all).
+    how finely a run of either engine samples the bed's motion within the cycle (None: not
+    at all).
     """
 
     geometry: Geometry

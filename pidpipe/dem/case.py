@@ -9,7 +9,9 @@ record has every key of the LIGGGHTS record (``solver`` and ``engine.name`` say 
 it); ``cycles`` holds the k cells' series summed, with the term-by-term dissipation as
 ``dissipated_j`` (the DEM's E_d; the balance is under ``dem``), and ``dem`` the DEM's own
 ledgers: the balance, its mismatch with the term-by-term sum, and the dissipation by term and
-contact type.
+contact type. With ``settings.motion`` the kernel samples the bed's motion within the cycle
+as the LIGGGHTS deck does, and the record's ``regime`` and ``motion`` come from it by the same
+code (:func:`pidpipe.measurement.inspection.motion_record`).
 """
 
 from __future__ import annotations
@@ -27,10 +29,11 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.from_scene import dem_scene
-from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles, start
+from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles_sampled, start
 from pidpipe.liggghts.parsing import CycleSeries
 from pidpipe.liggghts.shake import RECORD_VERSION, as_packing_list, containment_flags
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.inspection import motion_record
 from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
 from pidpipe.physics.equivalent_damping import displacement_amplitude_m
@@ -74,7 +77,7 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
     cell_scene = CellScene.of(settings)
     scene = dem_scene(cell_scene, case.freq_hz, [case.accel_g] * k)
     scene, state, ws = start(scene, np.stack([packing.centres() for packing in packings]))
-    cycles = run_cycles(scene, state, ws, n_cycles)
+    cycles, motion = run_cycles_sampled(scene, state, ws, n_cycles, settings.motion)
     series = summed_series(cycles)
     balance = cycles["dissipated_balance_j"]
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,
@@ -87,6 +90,9 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
                                             packings):
         cell_summary.update(seed=packing.seed, n_spheres=packing.n_spheres,
                             pile_height_m=packing.pile_height_m, dissipated_j=terms.tolist())
+    inspection = ({"regime": regime(case.accel_g)} if motion is None else motion_record(
+        motion, transient, scene.steps_per_cycle, settings.motion.windows_per_cycle,
+        [float(np.ptp(packing.centres()[:, 2])) for packing in packings]))
     mismatch = balance_mismatch(series.dissipated_j, balance.sum(axis=0), series.gross_work_j)
     flags = (containment_flags(cell_scene, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
              + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else []))
@@ -105,7 +111,7 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
         "flags": flags,
         **summary,
         **steady.as_record(),
-        "regime": regime(case.accel_g),
+        **inspection,
         "wall_work_cycle_mean_j": float(series.wall_work_j[measured].mean()) / k,
         "ledger_mismatch_of_gross_work": mismatch,
         "cycles": series.as_record(),

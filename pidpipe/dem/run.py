@@ -21,12 +21,14 @@ from typing import Callable
 
 import numpy as np
 
-from pidpipe.dem import compiled
+from pidpipe.config.inspection import MotionSampling
+from pidpipe.dem import compiled, kernel
 from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.energy import centre_of_mass_height
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State, initial_state
 from pidpipe.errors import PackingError
+from pidpipe.measurement.motion import BedMotion
 from pidpipe.measurement.statistics import summarise_cycles
 from pidpipe.measurement.steady_state import SteadyState, assess_steady_state
 
@@ -133,11 +135,68 @@ def run_cycles(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_cycle
           lowest and highest sphere centre at the boundaries (lab frame), shape
           (n_batch, n_cycles + 1), m
     """
-    out = compiled.run_cycles(scene, state, ws, int(n_cycles), centre_of_mass_height(state))
+    return run_cycles_sampled(scene, state, ws, n_cycles, None)[0]
+
+
+def run_cycles_sampled(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_cycles: int,
+                       sampling: MotionSampling | None) -> tuple[dict, BedMotion | None]:
+    """:func:`run_cycles`, sampling the bed's motion within the cycle in the same kernel call.
+
+    Parameters
+    ----------
+    sampling : MotionSampling or None
+        Windows per cycle and the spacing of the force samples, as the LIGGGHTS deck takes
+        them (:meth:`MotionSampling.window_steps`); None: no sampling. Windows count from
+        step 0, so the run is sampled from its start when ``state.step`` is 0.
+
+    Returns
+    -------
+    cycles : dict of ndarray
+        As :func:`run_cycles`.
+    motion : BedMotion or None
+        Every cell's window means (:class:`pidpipe.measurement.motion.BedMotion`): the walls'
+        power is the work of every step in the window over its length (exact, not sampled);
+        the floor's and lid's forces are the means of samples every
+        ``sampling.sample_every_steps`` steps (the floor's upward force on the spheres and
+        theirs on the lid, from the contacts with those two planes); heights above the moving
+        floor and K + K_rot + P (potential zero at the centre of mass the call started from)
+        at the window ends, the heights averaged over each window's two ends as LIGGGHTS'
+        are. None without sampling.
+    """
+    window = 0 if sampling is None else sampling.window_steps(scene.steps_per_cycle)
+    every = 1 if sampling is None else int(sampling.sample_every_steps)
+    out = compiled.run_cycles(scene, state, ws, int(n_cycles), centre_of_mass_height(state),
+                              window, every)
     boundary = {key: out[key] for key in ("kinetic_translational", "kinetic_rotational",
                                           "potential", "elastic", "ledger")}
-    return cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
-                         out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
+    cycles = cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
+                           out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
+    return cycles, (None if sampling is None else bed_motion(scene, state, out["motion"], window))
+
+
+def bed_motion(scene: Scene, state: State, sampled: np.ndarray, window_steps: int) -> BedMotion:
+    """The kernel's motion output (N_MOTION_ROWS, n_batch, n_windows + 1) as a BedMotion.
+
+    Every cell of the batch must share the wall amplitude (the cells of one case do).
+    """
+    amplitude = np.asarray(scene.amplitude_m, dtype=float).reshape(-1)
+    if not np.allclose(amplitude, amplitude[0], rtol=1e-12, atol=0.0):
+        raise ValueError("a BedMotion needs one wall amplitude for all cells of the batch")
+    windows = sampled[:, :, :-1]
+    samples = np.maximum(windows[kernel.M_SAMPLES], 1.0)
+    ends = sampled[:, :, :]
+    mean_of_ends = {name: (0.5 * (ends[row, :, 1:] + ends[row, :, :-1])).T
+                    for name, row in (("centre_m", kernel.M_CENTRE), ("bottom_m", kernel.M_BOTTOM),
+                                      ("top_m", kernel.M_TOP))}
+    return BedMotion(window_steps=int(window_steps), timestep_s=scene.timestep_s,
+                     period_s=1.0 / scene.freq_hz, amplitude_m=float(amplitude[0]),
+                     power_w=(windows[kernel.M_WORK] / (window_steps * scene.timestep_s)).T,
+                     floor_force_n=(windows[kernel.M_FLOOR] / samples).T,
+                     lid_force_n=(windows[kernel.M_LID] / samples).T,
+                     energy_j=ends[kernel.M_ENERGY].T,
+                     weight_n=np.full(state.n_batch, state.n_spheres * scene.mass_kg
+                                      * scene.gravity_m_s2),
+                     radius_m=scene.radius_m, **mean_of_ends)
 
 
 def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,

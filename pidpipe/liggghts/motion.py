@@ -28,6 +28,7 @@ from pidpipe.cell.geometry import HexCell
 from pidpipe.config.inspection import MotionSampling
 from pidpipe.errors import ParseError
 from pidpipe.liggghts.parsing import read_ave_time
+from pidpipe.measurement.inspection import motion_record as bed_motion_record
 from pidpipe.measurement.motion import BedMotion
 
 WINDOW_FILE = "motion_windows.txt"
@@ -136,21 +137,12 @@ def motion_record(plan: dict, workdir: str | Path, first_cycle: int, weight_n, r
     Returns
     -------
     dict
-        ``regime`` (decided from the motion, :func:`pidpipe.measurement.regime.motion_regime`)
-        and ``motion``: the windows' length, the phase profile of the mean cell
-        (:func:`pidpipe.measurement.phase.phase_profile`), each cell's regime and features.
+        ``regime`` and ``motion``, as :func:`pidpipe.measurement.inspection.motion_record`
+        makes them for either engine.
     """
-    from pidpipe.measurement.phase import phase_profile
-    from pidpipe.measurement.regime import motion_regime
-
     window_steps = int(plan["motion"]["window_steps"])
-    bins = min(int(windows_per_cycle), int(plan["steps_per_cycle"]) // window_steps)
     motion = read_bed_motion(workdir, window_steps, plan["steps_per_cycle"] * plan["cycles"],
                              plan["timestep"].timestep_s, plan["period_s"], plan["amplitude_m"],
                              weight_n, radius_m)
-    regime = motion_regime(motion, first_cycle, bins, rest_height_m)
-    return {"regime": regime["regime"],
-            "motion": {"window_steps": window_steps, "phase_bins": bins,
-                       "profile": phase_profile(motion, first_cycle, bins),
-                       "cell_regimes": regime["cell_regimes"],
-                       "cell_features": regime["cell_features"]}}
+    return bed_motion_record(motion, first_cycle, plan["steps_per_cycle"], windows_per_cycle,
+                             rest_height_m)

@@ -3,16 +3,19 @@ plans with (:mod:`pidpipe.measurement.allocation`).
 
 A shaking run's CPU time is modelled as
 
-    cpu_s = overhead_s + steps * (per_step_s + per_cell_step_s * k + per_sphere_step_s * k * s)
+    cpu_s = overhead_s + steps * (per_step_s + per_cell_step_s * k + per_sphere_step_s * k * s
+                                  + per_pair_step_s * k * s (s - 1) / 2)
 
 with ``steps`` = (transient + measured cycles) x steps per cycle, ``k`` cells of ``s`` spheres
-each. LIGGGHTS' cost per step is mostly its mesh-wall fix (``notes/liggghts-3.8.md``), which
+each. The last term, the sphere pairs of a cell, is the compiled DEM's (it screens every pair
+at every step, and fuller cells have more contacts per sphere); LIGGGHTS' model has it 0. LIGGGHTS' cost per step is mostly its mesh-wall fix (``notes/liggghts-3.8.md``), which
 grows with the cells' triangles (k) more than with the spheres. A pour costs
 ``pour_overhead_s + pour_per_sphere_s * s``. The coefficients are fitted to measured runs
 (``benchmarks/bench_cells.py --cost``) and stored with the machine, date and command in
-``cost_models.json`` next to this module, one entry per engine. The compiled DEM engine
-(``engine: dem``) has its slot there (``dem``), empty until its benchmark fills it; an engine
-without a stored model is planned with :func:`scaled_from_pilot`.
+``cost_models.json`` next to this module, one entry per engine: ``liggghts``, and ``dem`` for
+the compiled DEM (``benchmarks/bench_cells.py --cost --engine dem``; its cost per step is
+mostly per sphere, with no mesh). An engine without a stored model is planned with
+:func:`scaled_from_pilot`.
 """
 
 from __future__ import annotations
@@ -45,6 +48,8 @@ class CostModel:
         CPU time of a run that does no step (start-up, deck, output), s.
     per_step_s, per_cell_step_s, per_sphere_step_s : float
         CPU time per time step: fixed, per cell, and per sphere, s.
+    per_pair_step_s : float
+        CPU time per time step and sphere pair of a cell, s (0 in models fitted without it).
     pour_overhead_s, pour_per_sphere_s : float
         CPU time of one pour: fixed and per sphere, s.
     machine, date, command : str
@@ -65,10 +70,12 @@ class CostModel:
     date: str = ""
     command: str = ""
     points: tuple = ()
+    per_pair_step_s: float = 0.0
 
     def run_cpu_s(self, cells: int, n_spheres: int, steps: float) -> float:
         """CPU time of one run of ``cells`` cells of ``n_spheres`` spheres each over ``steps`` steps, s."""
-        per_step = self.per_step_s + cells * (self.per_cell_step_s + self.per_sphere_step_s * n_spheres)
+        per_step = self.per_step_s + cells * (self.per_cell_step_s + self.per_sphere_step_s * n_spheres
+                                              + self.per_pair_step_s * n_spheres * (n_spheres - 1) / 2)
         return float(self.overhead_s + steps * per_step)
 
     def pour_cpu_s(self, n_spheres: int) -> float:
@@ -78,7 +85,8 @@ class CostModel:
     def describe(self) -> str:
         """One line with the coefficients."""
         return (f"{self.engine}: run = {self.overhead_s:.2f} s + steps x ({1e6 * self.per_step_s:.2f} "
-                f"+ {1e6 * self.per_cell_step_s:.2f} k + {1e6 * self.per_sphere_step_s:.3f} k s) us; "
+                f"+ {1e6 * self.per_cell_step_s:.2f} k + {1e6 * self.per_sphere_step_s:.3f} k s "
+                f"+ {1e6 * self.per_pair_step_s:.4f} k s(s-1)/2) us; "
                 f"pour = {self.pour_overhead_s:.2f} + {self.pour_per_sphere_s:.3f} s per sphere, s "
                 f"({self.machine}; {self.date})")
 
@@ -87,7 +95,7 @@ class CostModel:
 
 
 def fit_cost_model(points: list[dict], pours: list[dict], engine: str, machine: str,
-                   command: str) -> CostModel:
+                   command: str, pairs: bool = False) -> CostModel:
     """Least-squares fit of the run and pour costs to measurements.
 
     Parameters
@@ -98,6 +106,8 @@ def fit_cost_model(points: list[dict], pours: list[dict], engine: str, machine: 
     pours : list of dict
         Pours: ``n_spheres``, ``cpu_s``.
     engine, machine, command : str
+    pairs : bool
+        Fit the per-pair term too (the compiled DEM's; needs at least three sphere counts).
 
     Returns
     -------
@@ -112,16 +122,19 @@ def fit_cost_model(points: list[dict], pours: list[dict], engine: str, machine: 
     steps = np.array([p["steps"] for p in points], dtype=float)
     cpu = np.array([p["cpu_s"] for p in points], dtype=float)
     # Relative errors matter (runs span 1-200 s): weight each row by 1 / cpu.
-    design = np.column_stack([np.ones_like(k), steps, steps * k, steps * k * s]) / cpu[:, None]
-    coefficients, _ = nnls(design, np.ones_like(cpu))
+    columns = [np.ones_like(k), steps, steps * k, steps * k * s]
+    if pairs:
+        columns.append(steps * k * s * (s - 1) / 2)
+    coefficients, _ = nnls(np.column_stack(columns) / cpu[:, None], np.ones_like(cpu))
+    per_pair = float(coefficients[4]) if pairs else 0.0
     pour_s = np.array([p["n_spheres"] for p in pours], dtype=float)
     pour_cpu = np.array([p["cpu_s"] for p in pours], dtype=float)
     if np.unique(pour_s).size > 1:
         pour_coefficients, _ = nnls(np.column_stack([np.ones_like(pour_s), pour_s]), pour_cpu)
     else:
         pour_coefficients = np.array([float(pour_cpu.mean()), 0.0])
-    return CostModel(engine, *map(float, coefficients), *map(float, pour_coefficients),
-                     machine=machine,
+    return CostModel(engine, *map(float, coefficients[:4]), *map(float, pour_coefficients),
+                     per_pair_step_s=per_pair, machine=machine,
                      date=datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
                      command=command, points=tuple(points))
 

@@ -52,12 +52,18 @@ def _keys(record: dict, prefix: str = "") -> set[str]:
 
 def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
     liggghts, dem = both
-    # not compared: LIGGGHTS' own loop/CPU figures, and the bed's motion within the cycle
-    # (``motion``, issue 17), which only the LIGGGHTS deck samples so far: the table then takes
-    # a DEM case's regime from its acceleration (pidpipe.design.records)
-    missing = {key for key in _keys(liggghts) - _keys(dem)
-               if not key.startswith(("engine.liggghts_", "motion"))}
+    # not compared: LIGGGHTS' own loop/CPU figures
+    missing = {key for key in _keys(liggghts) - _keys(dem) if not key.startswith("engine.liggghts_")}
     assert not missing
+    # the bed's motion within the cycle (issue 17), sampled by both engines alike
+    assert _keys(dem["motion"]) == _keys(liggghts["motion"])
+    for key in ("window_steps", "phase_bins"):
+        assert dem["motion"][key] == liggghts["motion"][key]
+    for name, quantity in liggghts["motion"]["profile"].items():
+        if isinstance(quantity, dict):
+            assert len(dem["motion"]["profile"][name]["mean"]) == len(quantity["mean"]), name
+    assert dem["motion"]["cell_features"][0].keys() == liggghts["motion"]["cell_features"][0].keys()
+    assert dem["regime"] == dem["motion"]["cell_regimes"][0]
     assert liggghts["solver"] == "liggghts" and dem["solver"] == "numba-dem"
     assert dem["engine"]["name"] == dem["fidelity"]["engine"] == "dem"
     assert liggghts["engine"]["name"] == liggghts["fidelity"]["engine"] == "liggghts"
@@ -114,3 +120,30 @@ def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_cas
     assert case_runner(ShakeSettings.from_config(config)) is run_case
     failed = failed_record(ShakeSettings.from_config(dem), CASE, 5, [1], "boom")
     assert failed["solver"] == "numba-dem" and failed["fidelity"]["engine"] == "dem"
+
+
+def test_a_dem_case_plans_its_runs_with_the_stored_dem_cost_model(packings, tmp_path):
+    """The case step (engine: dem) hands the allocation the DEM's stored cost model
+    (cost_models.json, entry dem), not one scaled from the pilot: the pilot's planned CPU is
+    that model's for its cells, spheres and steps."""
+    from pidpipe.cell.packing import save_packing
+    from pidpipe.cell.scene import CellScene
+    from pidpipe.config.stages import stage_config
+    from pidpipe.measurement.cost_model import load_cost_model
+    from pidpipe.steps.cases import simulate_case
+
+    config = short_config(transient=10, measured=8)
+    config["engine"] = "dem"
+    config["fidelity"]["target_relative_sem"] = 0.05
+    paths = [str(save_packing(p, tmp_path / f"packing{k}.json")) for k, p in enumerate(packings)]
+    record = simulate_case(stage_config(config, "case"), CASE.case_id, paths,
+                           str(tmp_path / "record.json"), str(tmp_path / "work"),
+                           str(tmp_path / "case.log"))
+    model = load_cost_model("dem")
+    assert model is not None and model.engine == "dem"
+    settings = ShakeSettings.from_config(config)
+    steps = (CellScene.of(settings).timestep(CASE.freq_hz).steps_per_cycle
+             * (settings.sampling.transient_cycles_at(CASE.freq_hz) + 8))
+    pilot = record["target"]["runs"][0]
+    assert pilot["kind"] == "pilot" and record["solver"] == "numba-dem"
+    assert pilot["planned_cpu_s"] == pytest.approx(model.run_cpu_s(2, packings[0].n_spheres, steps))
