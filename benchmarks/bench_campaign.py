@@ -74,8 +74,6 @@ def main() -> None:
         jobs = pd.DataFrame(rows)
         records = [json.loads(p.read_text()) for p in (work / "results" / "cases").glob("*.json")]
         pool = len(list((work / "results" / "packings" / "pool").glob("*rep*.json")))
-        pour_cpu = sum(sum(json.loads(p.read_text()).values())
-                       for p in (work / "results" / "packings").rglob("*_pour_cpu_s.json"))
         if args.keep:
             shutil.copytree(work / "results" / "cases", args.keep, dirs_exist_ok=True)
         cases = pd.DataFrame([case_row(r) for r in records])
@@ -87,8 +85,7 @@ def main() -> None:
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
              f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot failing a steady-state check); relative SEM "
              f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
-             f"{pool} packings poured on demand into the pool; LIGGGHTS CPU of the pool's pours "
-             f"{pour_cpu:.0f} s", "",
+             f"{pool} packings poured on demand into the pool (their CPU is inside the case jobs)", "",
              "| stage (rule) | jobs | summed job time s |", "|---|---|---|"]
     for rule, group in jobs.groupby("rule"):
         lines.append(f"| {rule} | {len(group)} | {group['s'].sum():.1f} |")
