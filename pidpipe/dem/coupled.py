@@ -45,16 +45,15 @@ import math
 import numpy as np
 
 from pidpipe.dem.kernel import (
-    BF,
-    BT,
-    BV,
-    BW,
-    BX,
     DT,
     INERTIA,
     MASS,
     N_ENERGY_ROWS,
+    _add_terms,
+    _cycle_terms,
     _forces,
+    _kick,
+    _kick_drift,
     _ledger,
     _pack,
     _unpack,
@@ -119,7 +118,6 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     out_host_energy : (n_cycles + 1,) E_h at the boundaries, J
     """
     _pack(x, v, w, f, t, body)
-    n = x.shape[2]
     n_batch = x.shape[1]
     dt = p[DT]
     half_over_m = 0.5 * dt / p[MASS]
@@ -147,15 +145,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
         for s in range(steps_per_cycle):
             # first half kick and drift: spheres, then the host (the walls)
             for b in range(n_batch):
-                cell = body[b]
-                for i in range(n):
-                    for c in range(3):
-                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
-                    for c in range(3):
-                        cell[i, BX + c] += cell[i, BV + c] * dt
-                    if rotation:
-                        for c in range(3):
-                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                _kick_drift(body[b], half_over_m, half_over_i, dt, rotation)
             u_half = uh + ah * (0.5 * dt)
             dx = u_half * dt
             x_new = xh + dx
@@ -170,14 +160,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
                 fz_prev[b] = fz
                 cell_fz[b] = fz
                 fz_sum += fz
-                acc[0, 0, b] += out[1]
-                acc[1, 0, b] += out[2]
-                acc[2, 0, b] += out[3]
-                acc[3, 0, b] += out[4]
-                acc[0, 1, b] += out[5]
-                acc[1, 1, b] += out[6]
-                acc[2, 1, b] += out[7]
-                acc[3, 1, b] += out[8]
+                _add_terms(acc, b, out)
             # the host's second half kick, implicit in its damping
             phase = omega * ((first + s + 1) * dt)
             force_new = force0 * math.cos(phase)
@@ -202,13 +185,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             force_prev = force_new
             # the spheres' second half kick
             for b in range(n_batch):
-                cell = body[b]
-                for i in range(n):
-                    for c in range(3):
-                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
-                    if rotation:
-                        for c in range(3):
-                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                _kick(body[b], half_over_m, half_over_i, rotation)
         out_cycle[C_FORCE_WORK, cycle] = work_f
         out_cycle[C_HOST_DAMPING, cycle] = damp_h
         out_cycle[C_WALL_WORK, cycle] = work_w
@@ -221,13 +198,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
         for b in range(n_batch):
             out_cell[0, b, cycle] *= harmonic
             out_cell[1, b, cycle] *= harmonic
-            for kind in range(2):
-                s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
-                damping = dt * s3
-                out_terms[0, kind, b, cycle] = 0.5 * dt * s0
-                out_terms[1, kind, b, cycle] = 0.5 * s2
-                out_terms[2, kind, b, cycle] = damping
-                out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
+            _cycle_terms(acc, b, dt, out_terms, cycle)
             _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, cycle + 1])
         host_state[S_X], host_state[S_U], host_state[S_A] = xh, uh, ah
         out_host_energy[cycle + 1] = _host_energy(host_p, host_state, dt)

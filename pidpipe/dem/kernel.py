@@ -195,7 +195,6 @@ def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, la
     """
     n = body.shape[0]
     radius = p[RADIUS]
-    dt = p[DT]
     reach2 = 4.0 * radius * radius * (1.0 + 1e-9)
     torques = friction and rotation
     for i in range(n):
@@ -322,6 +321,55 @@ def _keep(hist, i, col, h):
     hist[i, col, HD] = h[13]
     hist[i, col, HS2] = h[17]
     hist[i, col, HSLIDE] = 1.0 if h[18] else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _kick_drift(cell, half_over_m, half_over_i, dt, rotation):
+    """Velocity Verlet's first half for one cell: half kick, drift, half kick of the spins."""
+    for i in range(cell.shape[0]):
+        for c in range(3):
+            cell[i, BV + c] += cell[i, BF + c] * half_over_m
+        for c in range(3):
+            cell[i, BX + c] += cell[i, BV + c] * dt
+        if rotation:
+            for c in range(3):
+                cell[i, BW + c] += cell[i, BT + c] * half_over_i
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _kick(cell, half_over_m, half_over_i, rotation):
+    """Velocity Verlet's second half kick for one cell, with the forces of the new positions."""
+    for i in range(cell.shape[0]):
+        for c in range(3):
+            cell[i, BV + c] += cell[i, BF + c] * half_over_m
+        if rotation:
+            for c in range(3):
+                cell[i, BW + c] += cell[i, BT + c] * half_over_i
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _add_terms(acc, b, out):
+    """Add one step's raw energy terms (``out[1:9]`` of :func:`_forces`) to cell b's ``acc``."""
+    acc[0, 0, b] += out[1]
+    acc[1, 0, b] += out[2]
+    acc[2, 0, b] += out[3]
+    acc[3, 0, b] += out[4]
+    acc[0, 1, b] += out[5]
+    acc[1, 1, b] += out[6]
+    acc[2, 1, b] += out[7]
+    acc[3, 1, b] += out[8]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _cycle_terms(acc, b, dt, out_terms, cycle):
+    """Cell b's four dissipation terms of a cycle (J, by contact type) from its raw sums."""
+    for kind in range(2):
+        s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
+        damping = dt * s3
+        out_terms[0, kind, b, cycle] = 0.5 * dt * s0
+        out_terms[1, kind, b, cycle] = 0.5 * s2
+        out_terms[2, kind, b, cycle] = damping
+        out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
 
 
 @njit(cache=True, error_model="numpy")
@@ -462,14 +510,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
             work_sum = acc_work[b]
             gross_sum = acc_gross[b]
             for s in range(steps_per_cycle):
-                for i in range(n):
-                    for c in range(3):
-                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
-                    for c in range(3):
-                        cell[i, BX + c] += cell[i, BV + c] * dt
-                    if rotation:
-                        for c in range(3):
-                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                _kick_drift(cell, half_over_m, half_over_i, dt, rotation)
                 zw = amp * z_unit[s]
                 vw = amp * v_unit[s]
                 uw = amp * u_unit[s]
@@ -480,20 +521,8 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                 fz_prev = fz
                 work_sum += work
                 gross_sum += abs(work)
-                acc[0, 0, b] += out[1]
-                acc[1, 0, b] += out[2]
-                acc[2, 0, b] += out[3]
-                acc[3, 0, b] += out[4]
-                acc[0, 1, b] += out[5]
-                acc[1, 1, b] += out[6]
-                acc[2, 1, b] += out[7]
-                acc[3, 1, b] += out[8]
-                for i in range(n):
-                    for c in range(3):
-                        cell[i, BV + c] += cell[i, BF + c] * half_over_m
-                    if rotation:
-                        for c in range(3):
-                            cell[i, BW + c] += cell[i, BT + c] * half_over_i
+                _add_terms(acc, b, out)
+                _kick(cell, half_over_m, half_over_i, rotation)
                 if motion_window > 0:
                     step = first + s + 1
                     window = (step - 1) // motion_window
@@ -512,13 +541,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
             acc_gross[b] = gross_sum
             out_work[b, cycle] = work_sum
             out_gross[b, cycle] = gross_sum
-            for kind in range(2):
-                s0, s1, s2, s3 = acc[0, kind, b], acc[1, kind, b], acc[2, kind, b], acc[3, kind, b]
-                damping = dt * s3
-                out_terms[0, kind, b, cycle] = 0.5 * dt * s0
-                out_terms[1, kind, b, cycle] = 0.5 * s2
-                out_terms[2, kind, b, cycle] = damping
-                out_terms[3, kind, b, cycle] = 0.5 * (s1 - s2) - damping
+            _cycle_terms(acc, b, dt, out_terms, cycle)
             _ledger(cell, history, p, rotation, reference[b], out_energy[:, b, cycle + 1])
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
