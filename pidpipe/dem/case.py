@@ -24,14 +24,14 @@ from typing import Sequence
 import numpy as np
 
 from pidpipe.cases import CaseSpec, regime
-from pidpipe.cell.packing import Packing, check_packing, pour_engines
+from pidpipe.cell.packing import Packing, pour_engines
 from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.from_scene import dem_scene
 from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles_sampled, start
 from pidpipe.liggghts.parsing import CycleSeries
-from pidpipe.liggghts.shake import RECORD_VERSION, as_packing_list, containment_flags
+from pidpipe.liggghts.shake import RECORD_VERSION, checked_packing_list, containment_flags
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.inspection import motion_record
 from pidpipe.measurement.run_record import fidelity_record
@@ -66,9 +66,7 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
         The case record.
     """
     started, cpu_started = time.perf_counter(), time.process_time()
-    packings = as_packing_list(packings)
-    for index, packing in enumerate(packings):
-        check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
+    packings = checked_packing_list(packings, case.case_id)
     k = len(packings)
     sampling = settings.sampling
     block = sampling.sem_block_cycles

@@ -141,6 +141,15 @@ def as_packing_list(packings: Packing | Sequence[Packing]) -> list[Packing]:
     return listed
 
 
+def checked_packing_list(packings: Packing | Sequence[Packing], case_id: str) -> list[Packing]:
+    """:func:`as_packing_list`, each packing checked to fit and to have settled
+    (:func:`pidpipe.cell.packing.check_packing`, naming the cell when there are several)."""
+    listed = as_packing_list(packings)
+    for index, packing in enumerate(listed):
+        check_packing(packing, case_id if len(listed) == 1 else f"{case_id} cell {index}")
+    return listed
+
+
 def containment_flags(scene: CellScene, series: CycleSeries, amplitude_m: float) -> list[str]:
     """Flags for spheres found outside the moving cell at any cycle end (escaped or tunnelled)."""
     cell, radius = scene.cell, scene.radius_m
@@ -185,9 +194,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     started = time.perf_counter()
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
-    packings = as_packing_list(packings)
-    for index, packing in enumerate(packings):
-        check_packing(packing, case.case_id if len(packings) == 1 else f"{case.case_id} cell {index}")
+    packings = checked_packing_list(packings, case.case_id)
     for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
                   MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)

@@ -42,6 +42,13 @@ def extra_packing_index(replicate: int, cell: int) -> int:
     return EXTRA_PACKINGS_FROM + EXTRA_PACKINGS_PER_REPLICATE * int(replicate) + int(cell)
 
 
+def pool_packing_path(folder: str | Path, fill_pct: float, index: int) -> Path:
+    """The file of packing ``index`` of a fill in the pool ``folder``: ``r<fill>pct_rep<index>.json``."""
+    from pidpipe.cases import format_number
+
+    return Path(folder) / f"r{format_number(fill_pct)}pct_rep{int(index)}.json"
+
+
 def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
                   folder: str | Path) -> list:
     """The packings ``indices`` of a fill, poured on demand into ``folder`` and kept there.
@@ -59,7 +66,6 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
     """
     import fcntl
 
-    from pidpipe.cases import format_number
     from pidpipe.cell.packing import load_packing, reusable, save_packing
     from pidpipe.dem.pouring import pour_with_engine
 
@@ -68,8 +74,8 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
     wanted, seed = settings.fill.spheres(fill_pct), settings.pouring.seed
     packings = []
     for index in indices:
-        name = f"r{format_number(fill_pct)}pct_rep{index}"
-        path = folder / f"{name}.json"
+        path = pool_packing_path(folder, fill_pct, index)
+        name = path.stem
         with open(folder / f".{name}.lock", "w") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             packing = load_packing(path) if path.is_file() else None

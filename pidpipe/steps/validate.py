@@ -164,16 +164,16 @@ def replay_runs(settings: ShakeSettings, case: CaseSpec, plan: list[tuple[dict, 
 def _packing_of_seed(seed: int, pilot: dict, case: CaseSpec, config: dict,
                      packing_pool: str | None, source: str):
     """The packing of ``seed``: one of the pilot's, or the pool's of the case's fill."""
-    from pidpipe.cases import format_number
     from pidpipe.cell.packing import load_packing
     from pidpipe.config.settings import PourSettings
+    from pidpipe.steps.cases import pool_packing_path
 
     if seed in pilot:
         return pilot[seed]
     index = int(seed) - PourSettings.from_config(config).pouring.seed
-    name = f"r{format_number(case.fill_pct)}pct_rep{index}.json"
-    path = Path(packing_pool) / name if packing_pool else None
-    if path is None or not path.is_file():
+    path = pool_packing_path(packing_pool or ".", case.fill_pct, index)
+    name = path.name
+    if not packing_pool or not path.is_file():
         raise PidpipeError(f"{source} shook a packing of seed {seed} ({name}), which is not in "
                            f"the packing pool {packing_pool}: rerun the campaign first")
     packing = load_packing(path)

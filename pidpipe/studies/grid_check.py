@@ -72,11 +72,6 @@ def paired_difference(liggghts: dict, dem: dict) -> dict:
             "paired_agree": bool(np.isfinite(z) and abs(z) <= AGREEMENT_SEMS)}
 
 
-def _cpu_time(record: dict) -> float:
-    """A record's CPU seconds (:func:`pidpipe.design.records.record_cpu_time_s`)."""
-    return record_cpu_time_s(record)
-
-
 def grid_row(liggghts: dict, dem: dict) -> dict:
     """One row of the grid check from the two solvers' records of a case.
 
@@ -118,8 +113,8 @@ def grid_row(liggghts: dict, dem: dict) -> dict:
         "dem_measured_cycles": int(fid_d.get("measured_cycles", 0)),
         "liggghts_transient_cycles": int(fid_l.get("transient_cycles", -1)),
         "dem_transient_cycles": int(fid_d.get("transient_cycles", -1)),
-        "liggghts_cpu_time_s": _cpu_time(liggghts),
-        "dem_cpu_time_s": _cpu_time(dem),
+        "liggghts_cpu_time_s": record_cpu_time_s(liggghts),
+        "dem_cpu_time_s": record_cpu_time_s(dem),
         **paired_difference(liggghts, dem),
     }
 
