@@ -52,10 +52,12 @@ from pidpipe.dem.kernel import (
     _add_terms,
     _cycle_terms,
     _forces,
+    _forces_into,
     _kick,
     _kick_drift,
     _ledger,
     _pack,
+    _scratch,
     _unpack,
     njit,
 )
@@ -119,6 +121,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     """
     _pack(x, v, w, f, t, body)
     n_batch = x.shape[1]
+    pairs, work_rows = _scratch(x.shape[2])       # reused at every step, as in kernel.run
     dt = p[DT]
     half_over_m = 0.5 * dt / p[MASS]
     half_over_i = 0.5 * dt / p[INERTIA]
@@ -153,8 +156,8 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             fz_sum = 0.0
             wall_work = 0.0
             for b in range(n_batch):
-                out = _forces(body[b], hist[b], p, friction, rotation, normals, offsets, x_new,
-                              u_half, 0.0, True)
+                out = _forces_into(body[b], hist[b], p, friction, rotation, normals, offsets,
+                                   x_new, u_half, 0.0, True, pairs, work_rows)
                 fz = out[0]
                 wall_work += (fz_prev[b] + fz) * (0.5 * dx)
                 fz_prev[b] = fz
