@@ -27,7 +27,7 @@ import numpy as np
 from pidpipe.cell.geometry import HexCell
 from pidpipe.config.inspection import MotionSampling
 from pidpipe.errors import ParseError
-from pidpipe.liggghts.parsing import read_ave_time
+from pidpipe.liggghts.parsing import read_ave_time, without_step_zero
 from pidpipe.measurement.inspection import motion_record as bed_motion_record
 from pidpipe.measurement.motion import BedMotion
 
@@ -44,7 +44,7 @@ POINT_COLUMNS = ("energy_j", "centre_m", "bottom_m", "top_m")
 
 
 def motion_deck_values(sampling: MotionSampling, steps_per_cycle: int, cell: HexCell,
-                       radius_m: float, n_cells: int) -> dict:
+                       radius_m: float) -> dict:
     """The ``motion`` values of the shake deck.
 
     Parameters
@@ -55,8 +55,6 @@ def motion_deck_values(sampling: MotionSampling, steps_per_cycle: int, cell: Hex
         The cell (its floor and lid heights at rest, m).
     radius_m : float
         Sphere radius, m.
-    n_cells : int
-        Cells in the run: one uses the mesh's power (``power``), several their own (``power_cellN``).
     """
     band = CONTACT_BAND_RADII * radius_m
     window = sampling.window_steps(steps_per_cycle)
@@ -67,7 +65,6 @@ def motion_deck_values(sampling: MotionSampling, steps_per_cycle: int, cell: Hex
         "floor_z_m": cell.floor_z_m,
         "band_m": band,
         "lid_band_offset_m": (cell.lid_z_m - cell.floor_z_m) - band,
-        "power_variables": ["power"] if n_cells == 1 else [f"power_cell{k}" for k in range(n_cells)],
         "window_file": WINDOW_FILE,
         "energy_file": ENERGY_FILE,
     }
@@ -97,7 +94,8 @@ def read_bed_motion(workdir: str | Path, window_steps: int, total_steps: int, ti
     weight = np.asarray(weight_n, dtype=float).reshape(-1)
     n_cells = weight.size
     n_windows = int(total_steps) // int(window_steps)
-    windows = read_ave_time(Path(workdir) / WINDOW_FILE, 1 + len(WINDOW_COLUMNS) * n_cells)
+    windows = without_step_zero(read_ave_time(Path(workdir) / WINDOW_FILE,
+                                              1 + len(WINDOW_COLUMNS) * n_cells))
     points = read_ave_time(Path(workdir) / ENERGY_FILE, 1 + len(POINT_COLUMNS) * n_cells)
     if len(windows) != n_windows or len(points) != n_windows + 1:
         raise ParseError(f"{Path(workdir) / WINDOW_FILE}: {len(windows)} windows and "

@@ -10,8 +10,8 @@ The shake deck writes two ``fix ave/time`` files, one row per cycle of the base 
   centre.
 
 With several cells in one run (:mod:`pidpipe.replicate_cells`) the energy file has these five
-columns for each cell in turn, and the power file has each cell's mean power after the mesh's
-two columns (:func:`read_shake_cycles`).
+columns for each cell in turn, and a third file, the cell power file, has each cell's mean
+power over each cycle (:func:`read_shake_cycles`).
 
 The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
 boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
@@ -129,16 +129,26 @@ def read_cycles(power_path: str | Path, energy_path: str | Path, period_s: float
     return _cycle_series(power[:, 1] * period_s, power[:, 2] * period_s, energy[:, 1:6], elastic_j)
 
 
+def without_step_zero(table: np.ndarray) -> np.ndarray:
+    """``table`` without its first row if that row is step 0.
+
+    A ``fix ave/time`` with Nevery = Nfreq (values sampled only where they are written, as
+    the shake deck's per-cell sums of per-sphere averages are) also writes a row at step 0,
+    before anything was averaged; the files written every step start at the first cycle end.
+    """
+    return table[1:] if len(table) and table[0, 0] == 0 else table
+
+
 def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s: float,
                       expected_cycles: int, n_cells: int,
-                      elastic_j: np.ndarray | None = None) -> tuple[list[CycleSeries], CycleSeries]:
+                      elastic_j: np.ndarray | None = None,
+                      cell_power_path: str | Path | None = None) -> tuple[list[CycleSeries], CycleSeries]:
     """Per-cycle balance of each cell of a shake deck, and of all of them from the mesh's force.
 
     Parameters
     ----------
     power_path : path
-        The power file: step, the mesh's power and |power| over all cells, and with several
-        cells each cell's power.
+        The power file: step, the mesh's power and |power| over all cells.
     energy_path : path
         Each cell's energies at the cycle boundaries (step, then 5 columns cell by cell).
     period_s, expected_cycles
@@ -146,6 +156,8 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
     n_cells : int
     elastic_j : ndarray, shape (expected_cycles + 1, n_cells), optional
         Elastic energy held in each cell's contacts at each cycle boundary, J.
+    cell_power_path : path, optional
+        With several cells (then required): step, then each cell's mean power over the cycle.
 
     Returns
     -------
@@ -161,16 +173,21 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
     ParseError
         Missing, truncated or inconsistent output.
     """
-    cell_columns = n_cells if n_cells > 1 else 0
-    power, energy = _read_cycle_tables(power_path, energy_path, expected_cycles, n_cells,
-                                       3 + cell_columns)
+    power, energy = _read_cycle_tables(power_path, energy_path, expected_cycles, n_cells)
+    if n_cells > 1:
+        if cell_power_path is None:
+            raise ValueError("several cells need their cell power file")
+        cell_power = without_step_zero(read_ave_time(cell_power_path, 1 + n_cells))
+        if not np.array_equal(cell_power[:, 0], power[:, 0]):
+            raise ParseError(f"the cycle ends of {cell_power_path} and {power_path} differ "
+                             f"({len(cell_power)} and {len(power)} rows; truncated run?)")
     if elastic_j is not None:
         elastic_j = np.asarray(elastic_j, dtype=float).reshape(len(energy), n_cells)
     mesh_work, mesh_gross = power[:, 1] * period_s, power[:, 2] * period_s
     cells = []
     for index in range(n_cells):
         work, gross = ((mesh_work, mesh_gross) if n_cells == 1
-                       else (power[:, 3 + index] * period_s, np.full(len(power), np.nan)))
+                       else (cell_power[:, 1 + index] * period_s, np.full(len(power), np.nan)))
         cells.append(_cycle_series(work, gross, energy[:, 1 + 5 * index:6 + 5 * index],
                                    None if elastic_j is None else elastic_j[:, index]))
     if n_cells == 1:
@@ -182,10 +199,10 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
 
 
 def _read_cycle_tables(power_path: str | Path, energy_path: str | Path, expected_cycles: int,
-                       n_cells: int, power_columns: int = 3) -> tuple[np.ndarray, np.ndarray]:
+                       n_cells: int) -> tuple[np.ndarray, np.ndarray]:
     """The power file (step, power, |power|, ...) and the energy file (step, 5 columns per
     cell), checked for length and matching steps."""
-    power = read_ave_time(power_path, power_columns)
+    power = read_ave_time(power_path, 3)
     energy = read_ave_time(energy_path, 1 + 5 * n_cells)
     for path, table, rows in ((power_path, power, expected_cycles),
                               (energy_path, energy, expected_cycles + 1)):

@@ -41,6 +41,7 @@ from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 from pidpipe.physics.timestep import HERTZ_FRACTION_LIMIT, TIMESTEP_CHECKS_PER_CYCLE
 
 POWER_FILE = "power.txt"
+CELL_POWER_FILE = "cell_power.txt"
 ENERGY_FILE = "energy.txt"
 PAIR_CONTACT_FILE = "pair_contacts.dump"
 WALL_CONTACT_FILE = "wall_contacts.dump"
@@ -108,9 +109,9 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
               "weight_n": len(c) * mass_kg * STANDARD_GRAVITY_M_S2}
              for index, (first, last, c) in enumerate(zip(layout.first_atom_ids,
                                                           layout.last_atom_ids, centres))]
-    # One cell's wall power is the mesh's; several need their own (evaluated every step).
+    # One cell's wall power is the mesh's; several need their own (summed from the spheres').
     values.update(amplitude_m=amplitude, period_s=period, omega_rad_s=omega, cells=cells,
-                  cell_powers=cells if len(cells) > 1 else [],
+                  cell_powers=cells if len(cells) > 1 else [], cell_power_file=CELL_POWER_FILE,
                   velocity_amplitude_m_s=amplitude * omega,
                   steps_per_cycle=plan.steps_per_cycle, total_steps=plan.steps_per_cycle * cycles,
                   power_file=POWER_FILE, energy_file=ENERGY_FILE,
@@ -121,10 +122,11 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
     motion = settings.motion
     values.update(
         motion=None if motion is None else motion_deck_values(
-            motion, plan.steps_per_cycle, cell, radius, len(cells)),
+            motion, plan.steps_per_cycle, cell, radius),
         movie=None if movie is None else movie_deck_values(
             movie, plan.steps_per_cycle, cycles, workdir),
-        store_wall_force=motion is not None)
+        store_wall_force=motion is not None,
+        sphere_power=len(cells) > 1 or motion is not None)
     deck = workdir / "shake.lmp"
     deck.write_text(render("shake.lmp.j2", values), encoding="utf-8")
     return {"deck": deck, "period_s": period, "cycles": cycles, "timestep": plan,
@@ -195,7 +197,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
     packings = checked_packing_list(packings, case.case_id)
-    for stale in (POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
+    for stale in (POWER_FILE, CELL_POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
                   MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)
     plan = render_shake_deck(settings, case, packings, workdir, movie=movie)
@@ -276,7 +278,8 @@ def read_cell_series(scene: CellScene, plan: dict,
     elastic = boundary_elastic_energy(workdir / PAIR_CONTACT_FILE, workdir / WALL_CONTACT_FILE,
                                       scene, boundaries, cell_of_atom=cell_of_atom)
     cells, mesh = read_shake_cycles(workdir / POWER_FILE, workdir / ENERGY_FILE, plan["period_s"],
-                                    plan["cycles"], layout.n_cells, elastic_j=elastic)
+                                    plan["cycles"], layout.n_cells, elastic_j=elastic,
+                                    cell_power_path=workdir / CELL_POWER_FILE)
     cells_work = np.sum([cell.wall_work_j for cell in cells], axis=0)
     gross = mesh.gross_work_j.mean()
     return cells, mesh, float(np.max(np.abs(cells_work - mesh.wall_work_j)) / gross) if gross > 0 else 0.0

@@ -79,17 +79,20 @@ def _write_ave_time(path, rows):
 
 
 def test_each_cell_balance_and_the_mesh_total(tmp_path):
-    """Power file: step, mesh power, |mesh power|, then each cell's power; energy file: 5 columns
-    per cell at every boundary from step 0."""
+    """Power file: step, mesh power, |mesh power|; cell power file: step (from 0, as LIGGGHTS
+    writes it), then each cell's power; energy file: 5 columns per cell at every boundary from
+    step 0."""
     period, cycles = 0.002, 3
     cell_power = np.array([[1.0, 2.0], [1.5, 2.5], [0.5, 1.0]]) * 1e-6      # W per cell
     _write_ave_time(tmp_path / "power.txt",
-                    [[100 * (k + 1), cell_power[k].sum(), 9e-6, *cell_power[k]] for k in range(cycles)])
+                    [[100 * (k + 1), cell_power[k].sum(), 9e-6] for k in range(cycles)])
+    _write_ave_time(tmp_path / "cell_power.txt",
+                    [[0, 0.0, 0.0]] + [[100 * (k + 1), *cell_power[k]] for k in range(cycles)])
     energies = [[100 * k, 1e-9 * k, 0.0, 0.0, -0.01, 0.0, 2e-9 * k, 0.0, 0.0, -0.01, 0.0]
                 for k in range(cycles + 1)]
     _write_ave_time(tmp_path / "energy.txt", energies)
     cells, mesh = read_shake_cycles(tmp_path / "power.txt", tmp_path / "energy.txt", period,
-                                    cycles, 2)
+                                    cycles, 2, cell_power_path=tmp_path / "cell_power.txt")
     np.testing.assert_allclose(cells[0].dissipated_j, cell_power[:, 0] * period - 1e-9, atol=1e-20)
     np.testing.assert_allclose(cells[1].dissipated_j, cell_power[:, 1] * period - 2e-9, atol=1e-20)
     np.testing.assert_allclose(mesh.dissipated_j, cells[0].dissipated_j + cells[1].dissipated_j, atol=1e-20)

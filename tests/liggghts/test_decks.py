@@ -54,7 +54,11 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
     plan = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), [_packing(), second], tmp_path)
     text = plan["deck"].read_text()
     assert "group           cell1 id 3:3" in text
-    assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power v_power_cell0 v_power_cell1 file" in text
+    assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power file" in text
+    # each cell's power: one per-sphere pass a step, summed per cell only at the cycle ends
+    assert "fix             sphere_cycle_power all ave/atom 1 2223 2223 v_sphere_power" in text
+    assert " c_cycle_power_cell0 c_cycle_power_cell1 file cell_power.txt" in text
+    assert "equal (fcm(" not in text
     assert text.count("mesh/surface/stress") == 1
     _compare("shake_two_cells.lmp", text)
 
@@ -136,10 +140,11 @@ def test_shake_deck_with_motion_sampling_and_movie_golden(tmp_path):
                              movie=MovieSettings(5, 2))
     text = plan["deck"].read_text()
     assert "meshes cell store_force yes\n" in text
-    assert " v_power_cell1 v_floor_force_cell1 v_lid_force_cell1 file motion_windows.txt" in text
+    assert "ave/atom 10 11 110 v_sphere_power v_floor_fz v_lid_force" in text
+    assert " c_window_cell1[1] c_window_cell1[2] c_window_cell1[3] file motion_windows.txt" in text
     assert " v_energy_cell1 v_centre_cell1 v_bottom_cell1 v_top_cell1 file motion_energy.txt" in text
     # 2223 steps a cycle, 20 windows: 111 steps, rounded down to samples every 10 steps
-    assert plan["motion"]["window_steps"] == 110 and "ave/time 10 11 110" in text
+    assert plan["motion"]["window_steps"] == 110 and "ave/atom 10 11 110" in text
     steps = [int(s) for s in (tmp_path / "movie_steps.txt").read_text().split()]
     cycles = plan["cycles"]
     assert len(steps) == 10 + 1 and steps[0] == (cycles - 2) * 2223 and steps[-1] == cycles * 2223 + 1
