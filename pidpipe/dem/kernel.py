@@ -68,6 +68,9 @@ M_WORK, M_FLOOR, M_LID, M_SAMPLES, M_ENERGY, M_CENTRE, M_BOTTOM, M_TOP = 0, 1, 2
 N_MOTION_ROWS = 8
 NEAR_SKIN = 0.05
 """Skin of the near lists (:func:`_build_near`), as a fraction of the sphere radius."""
+INDEX = np.uint32
+"""Type of the sphere and plane indices in the contact lists: unsigned, so that Numba indexes
+the state and history with them without its test for negative indices (1.03-1.09x)."""
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -183,7 +186,7 @@ def _scratch(n):
     """The scratch arrays of :func:`_forces_into` for cells of ``n`` spheres: the partners of
     every possible contact (2, n_max) and its precomputed numbers (N_WORK, n_max)."""
     n_max = n * (n - 1) // 2 + n * N_WALLS
-    return np.empty((2, n_max), dtype=np.int64), np.empty((N_WORK, n_max))
+    return np.empty((2, n_max), dtype=INDEX), np.empty((N_WORK, n_max))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -198,7 +201,7 @@ def _near_scratch(nb, n):
     n_max = n * (n - 1) // 2 + n * N_WALLS
     near_n = np.empty((nb, 2), dtype=np.int64)
     near_n[:] = -1
-    return np.empty((nb, 2, n_max), dtype=np.int64), near_n, np.empty((nb, n + 1, 3))
+    return np.empty((nb, 2, n_max), dtype=INDEX), near_n, np.empty((nb, n + 1, 3))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
