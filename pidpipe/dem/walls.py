@@ -98,14 +98,8 @@ def viblin_wall_motion(step: int, timestep_s: float, amplitude_m: np.ndarray,
 
     Parameters
     ----------
-    step : int
-        The step n that ends at t_n = n dt (0: the start, at rest).
-    timestep_s : float
-        dt, s.
-    amplitude_m : ndarray, shape (n_batch,)
-        Displacement amplitude W of each cell, m.
-    omega_rad_s : float
-        Angular frequency, rad/s.
+    step, timestep_s, amplitude_m, omega_rad_s
+        As :func:`wall_step_velocity` (step 0 is the start, at rest).
 
     Returns
     -------
