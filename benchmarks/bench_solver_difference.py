@@ -128,8 +128,8 @@ def main() -> None:
                 transient = settings.sampling.transient_cycles_at(freq)
                 ceq[name] = np.array([ceq_from_energy(float(cell[transient:].mean()), freq, 1.0)
                                       for cell in series])
-                print(f"{case.case_id} {name}: {ceq[name].mean():.6g} ({cpu[name]:.0f} s CPU)",
-                      file=sys.stderr, flush=True)
+                print(f"{case.case_id} {name}: {ceq[name].mean():.6g} ({cpu[name]:.0f} s CPU); "
+                      f"cells {' '.join(f'{c:.6g}' for c in ceq[name])}", file=sys.stderr, flush=True)
             for name in variants:
                 engine, fraction, option = VARIANTS[name]
                 values = ceq[name]
