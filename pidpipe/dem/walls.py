@@ -12,7 +12,7 @@ to within W (omega dt)^2 / 8. The DEM (this module's :func:`wall_motion`, and th
 kernel) places the walls at z_w(t_n) = W (cos(omega t_n) - 1) instead, half a step behind
 LIGGGHTS' mesh while the contacts see the same velocity v_w(t_n): its wall moves by
 u_w dt (:func:`wall_step_velocity`) in a step in which the contacts integrate v_w(t_n) dt.
-That half step is what makes the DEM dissipate 0.2-0.3 % less than LIGGGHTS at 1 g
+That half step is what made the DEM dissipate 0.1-0.3 % less than LIGGGHTS at 1 g
 (``benchmarks/bench_solver_difference.py``, README "Why the DEM dissipated less at 1 g");
 ``walls="viblin"`` in :func:`pidpipe.dem.integrator.step` moves the NumPy reference's walls as
 LIGGGHTS does.
