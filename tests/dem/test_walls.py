@@ -1,4 +1,4 @@
-"""Wall motion: LIGGGHTS' viblin, z = W (cos wt - 1), starting at rest."""
+"""Wall motion: the DEM's z_w = W (cos wt - 1), starting at rest, and where LIGGGHTS' viblin puts its mesh."""
 
 from __future__ import annotations
 
