@@ -107,7 +107,7 @@ class HexCell:
 
 
 def cell_wall_triangles(cell: HexCell, top_z_m: float | None = None,
-                        closed: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                        closed: bool = True, subdivisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Triangulate the cell walls with inward-facing normals.
 
     Parameters
@@ -119,33 +119,52 @@ def cell_wall_triangles(cell: HexCell, top_z_m: float | None = None,
         pouring cell used for packing.
     closed : bool
         Whether to add the lid at ``top_z_m``.
+    subdivisions : int
+        Points per hexagon side (1: the corners only, the mesh every run uses). With n > 1 each
+        side is cut into n equal pieces: each side wall becomes n strips (2n triangles) and the
+        floor and lid 6n - 2 triangles each, the same surfaces with more shared edges between
+        coplanar triangles and still no vertex inside a face (every vertex lies on the
+        hexagon's edges). Only for measuring what the edges of a flat face do
+        (``benchmarks/bench_solver_difference.py``).
 
     Returns
     -------
-    points : ndarray, shape (n_points, 3)
-        Vertex coordinates, m.
+    points : ndarray, shape (12 * subdivisions, 3)
+        Vertex coordinates, m: the bottom ring, then the top ring.
     triangles : ndarray, shape (n_triangles, 3)
         Vertex indices, wound so that the right-hand normal points into the cell.
     """
+    n = int(subdivisions)
+    if n < 1 or n != subdivisions:
+        raise ValueError(f"subdivisions must be a whole number >= 1, got {subdivisions!r}")
     top = cell.lid_z_m if top_z_m is None else float(top_z_m)
     bottom = cell.floor_z_m
-    ring = cell.vertices_xy()
+    corners = cell.vertices_xy()
+    fraction = np.arange(n) / n
+    ring = np.vstack([corners[k] + fraction[:, None] * (corners[(k + 1) % 6] - corners[k])
+                      for k in range(6)])                                # (6n, 2), counter-clockwise
+    m = len(ring)
     points = np.vstack([
-        np.column_stack([ring, np.full(6, bottom)]),   # 0..5   bottom ring
-        np.column_stack([ring, np.full(6, top)]),      # 6..11  top ring
+        np.column_stack([ring, np.full(m, bottom)]),   # 0..m-1   bottom ring
+        np.column_stack([ring, np.full(m, top)]),      # m..2m-1  top ring
     ])
     triangles = []
-    for k in range(6):
-        b0, b1, t0, t1 = k, (k + 1) % 6, 6 + k, 6 + (k + 1) % 6
-        # side wall k: the ring runs counter-clockwise, so (b0, t0, b1) faces inward
+    for j in range(m):
+        b0, b1, t0, t1 = j, (j + 1) % m, m + j, m + (j + 1) % m
+        # side wall strip j: the ring runs counter-clockwise, so (b0, t0, b1) faces inward
         triangles += [(b0, t0, b1), (b1, t0, t1)]
     # Faces: a fan from corner 0, so that no mesh vertex lies inside a face (LIGGGHTS'
     # contact with a vertex shared by many coplanar triangles loses energy: measured e = 0.60
-    # for a configured 0.70 on a centre vertex, against 0.69-0.70 on a face or an edge).
-    for k in range(1, 5):
-        triangles.append((0, k, k + 1))                 # floor, normal +z
+    # for a configured 0.70 on a centre vertex, against 0.69-0.70 on a face or an edge). The
+    # points on the two sides that meet at corner 0 are in line with it: they are fanned from
+    # the first point past corner 1 and the last before corner 5 instead.
+    floor = [(i, i + 1, n + 1) for i in range(n)]                       # side 0, apex past corner 1
+    floor += [(0, k, k + 1) for k in range(n + 1, 5 * n - 1)]           # the fan from corner 0
+    floor += [((i + 1) % m, 5 * n - 1, i) for i in range(5 * n, m)]     # side 5, apex before corner 5
+    for a, b, c in floor:
+        triangles.append((a, b, c))                     # floor, normal +z
         if closed:
-            triangles.append((6, 6 + k + 1, 6 + k))     # lid, normal -z
+            triangles.append((m + a, m + c, m + b))     # lid, normal -z
     return points, np.asarray(triangles, dtype=np.int64)
 
 
@@ -157,24 +176,26 @@ def triangle_normals(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 
 def cells_wall_triangles(cell: HexCell, top_z_m: float | None = None, closed: bool = True,
-                         offsets_xy_m: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                         offsets_xy_m: np.ndarray | None = None,
+                         subdivisions: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """The walls of one cell, or of several separate cells, as one triangle mesh.
 
     Parameters
     ----------
-    top_z_m, closed
+    top_z_m, closed, subdivisions
         As :func:`cell_wall_triangles`.
     offsets_xy_m : ndarray, shape (n_cells, 2), optional
         Where each cell's axis is, m (default: one cell at the origin).
 
     Returns
     -------
-    points : ndarray, shape (12 * n_cells, 3)
+    points : ndarray, shape (12 * subdivisions * n_cells, 3)
         Vertex coordinates, m, cell by cell.
     triangles : ndarray, shape (n_triangles, 3)
         Vertex indices, wound so that the right-hand normal points into the cells.
     """
-    points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed)
+    points, triangles = cell_wall_triangles(cell, top_z_m=top_z_m, closed=closed,
+                                            subdivisions=subdivisions)
     if offsets_xy_m is not None:
         offsets = np.asarray(offsets_xy_m, dtype=float).reshape(-1, 2)
         n_points = len(points)
@@ -184,14 +205,15 @@ def cells_wall_triangles(cell: HexCell, top_z_m: float | None = None, closed: bo
 
 
 def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None,
-                   closed: bool = True, offsets_xy_m: np.ndarray | None = None) -> Path:
+                   closed: bool = True, offsets_xy_m: np.ndarray | None = None,
+                   subdivisions: int = 1) -> Path:
     """Write the cell walls as an ASCII STL file (coordinates in m) with meshio.
 
     The file is written to a temporary name and renamed, so a reader never sees half a mesh.
 
     Parameters
     ----------
-    top_z_m, closed
+    top_z_m, closed, subdivisions
         As :func:`cell_wall_triangles`.
     offsets_xy_m : ndarray, shape (n_cells, 2), optional
         For several separate cells in one mesh: where each cell's axis is, m (default: one
@@ -201,7 +223,7 @@ def write_cell_stl(path: str | Path, cell: HexCell, top_z_m: float | None = None
 
     path = Path(path)
     points, triangles = cells_wall_triangles(cell, top_z_m=top_z_m, closed=closed,
-                                             offsets_xy_m=offsets_xy_m)
+                                             offsets_xy_m=offsets_xy_m, subdivisions=subdivisions)
     tmp = path.with_name(path.name + ".part")
     meshio.write(tmp, meshio.Mesh(points, [("triangle", triangles)]), file_format="stl",
                  binary=False)

@@ -93,6 +93,8 @@ def place_packings(layout: CellLayout, centres_per_cell: list[np.ndarray]) -> np
                       for centres, (x, y) in zip(centres_per_cell, layout.offsets_m)])
 
 
-def write_cells_mesh(path: str | Path, cell: HexCell, layout: CellLayout) -> Path:
-    """Write the closed walls of every cell of the layout as one mesh (ASCII STL, m)."""
-    return write_cell_stl(path, cell, offsets_xy_m=layout.offsets_m)
+def write_cells_mesh(path: str | Path, cell: HexCell, layout: CellLayout,
+                     subdivisions: int = 1) -> Path:
+    """Write the closed walls of every cell of the layout as one mesh (ASCII STL, m); each
+    hexagon side cut into ``subdivisions`` pieces (:func:`pidpipe.cell.geometry.cell_wall_triangles`)."""
+    return write_cell_stl(path, cell, offsets_xy_m=layout.offsets_m, subdivisions=subdivisions)

@@ -8,6 +8,9 @@ One step, in LIGGGHTS' order:
    energy terms of the step use the wall's actual displacement over it
    (:func:`pidpipe.dem.walls.wall_step_velocity`)
 4. final_integrate: v += dt/2 F/m; omega += dt/2 T/I
+
+The walls are at z_w(t + dt) exactly, as in the compiled kernel; ``walls="viblin"`` puts them
+where LIGGGHTS' mesh is instead (:func:`pidpipe.dem.walls.viblin_wall_motion`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import numpy as np
 from pidpipe.dem.contacts import Workspace, clear_step_terms, compute_forces
 from pidpipe.dem.scene import Scene
 from pidpipe.dem.state import State
-from pidpipe.dem.walls import wall_motion, wall_step_velocity
+from pidpipe.dem.walls import WALL_MOTIONS, viblin_wall_motion, wall_motion, wall_step_velocity
 
 
 def set_up(scene: Scene, state: State, ws: Workspace) -> None:
@@ -28,8 +31,14 @@ def set_up(scene: Scene, state: State, ws: Workspace) -> None:
     clear_step_terms(ws)
 
 
-def step(scene: Scene, state: State, ws: Workspace) -> None:
-    """Advance the batch by one timestep; the step's energy terms are left in ``ws``."""
+def step(scene: Scene, state: State, ws: Workspace, walls: str = "exact") -> None:
+    """Advance the batch by one timestep; the step's energy terms are left in ``ws``.
+
+    ``walls`` is one of :data:`pidpipe.dem.walls.WALL_MOTIONS`: ``exact`` (z_w(t + dt), every
+    DEM run) or ``viblin`` (where LIGGGHTS' mesh is; its move over the step is v_w dt).
+    """
+    if walls not in WALL_MOTIONS:
+        raise ValueError(f"walls must be one of {', '.join(WALL_MOTIONS)}, got {walls!r}")
     dt = scene.timestep_s
     kick = ws.kick
     half_over_m = 0.5 * dt / scene.mass_kg
@@ -39,8 +48,12 @@ def step(scene: Scene, state: State, ws: Workspace) -> None:
     if scene.rotation:
         kick_force(state.torque, 0.5 * dt / scene.inertia_kg_m2, state.omega, kick)
     state.step += 1
-    z, vz = wall_motion(state.step * dt, ws.amplitude_m, ws.omega_rad_s)
-    v_step = wall_step_velocity(state.step, dt, ws.amplitude_m, ws.omega_rad_s)
+    if walls == "viblin":
+        z, vz = viblin_wall_motion(state.step, dt, ws.amplitude_m, ws.omega_rad_s)
+        v_step = vz
+    else:
+        z, vz = wall_motion(state.step * dt, ws.amplitude_m, ws.omega_rad_s)
+        v_step = wall_step_velocity(state.step, dt, ws.amplitude_m, ws.omega_rad_s)
     compute_forces(scene, state, ws, z, vz, wall_step_v_m_s=v_step, update_history=True)
     kick_force(state.force, half_over_m, v, kick)
     if scene.rotation:

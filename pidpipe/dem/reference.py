@@ -40,16 +40,20 @@ def start(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad
 
 
 def advance(scene: Scene, state: State, ws: Workspace, n_steps: int,
-            observer: Callable[[State, Workspace], None] | None = None) -> None:
-    """Take ``n_steps`` steps, calling ``observer(state, ws)`` after each one if given."""
+            observer: Callable[[State, Workspace], None] | None = None,
+            walls: str = "exact") -> None:
+    """Take ``n_steps`` steps, calling ``observer(state, ws)`` after each one if given (``walls``:
+    as :func:`pidpipe.dem.integrator.step`)."""
     for _ in range(int(n_steps)):
-        step(scene, state, ws)
+        step(scene, state, ws, walls)
         if observer is not None:
             observer(state, ws)
 
 
-def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict:
-    """As :func:`pidpipe.dem.run.run_cycles` (the same keys and shapes)."""
+def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int,
+               walls: str = "exact") -> dict:
+    """As :func:`pidpipe.dem.run.run_cycles` (the same keys and shapes); ``walls`` as
+    :func:`pidpipe.dem.integrator.step` (``viblin``: where LIGGGHTS' mesh is, not the kernel's)."""
     n_batch = state.n_batch
     work = np.zeros((n_batch, n_cycles))
     gross = np.zeros((n_batch, n_cycles))
@@ -60,7 +64,7 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int) -> dict
     for cycle in range(n_cycles):
         reset_accumulators(ws)
         for _ in range(scene.steps_per_cycle):
-            step(scene, state, ws)
+            step(scene, state, ws, walls)
         work[:, cycle] = ws.wall_work_acc
         gross[:, cycle] = ws.gross_wall_work_acc
         terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)

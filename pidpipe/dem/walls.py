@@ -1,10 +1,21 @@
 """The cell walls: eight planes moving rigidly with the base, as LIGGGHTS' ``viblin`` moves them.
 
-``fix move/mesh ... viblin axis 0 0 1 order 1 amplitude W phase 0 period T`` places the mesh,
-at the start of every step, at z_w(t) = W (cos(omega t) - 1) with velocity
-v_w(t) = -W omega sin(omega t), t being the time at the end of the step (LIGGGHTS moves the mesh
-in ``initial_integrate``, after the clock has advanced). The wall does not rotate, so a wall
-contact's normal is the plane's inward normal throughout.
+``fix move/mesh ... viblin axis 0 0 1 order 1 amplitude W phase 0 period T`` gives the mesh,
+in step n, the velocity v_w(t_n) = -W omega sin(omega t_n), t_n being the time at the end of
+the step (LIGGGHTS moves the mesh in ``initial_integrate``, after the clock has advanced). The
+wall does not rotate, so a wall contact's normal is the plane's inward normal throughout.
+
+Where the mesh is: LIGGGHTS 3.8 (``MeshMoverVibLin::initial_integrate``) moves it by
+v_w(t_n) dt in step n, so after step n it is at dt * sum_{k<=n} v_w(t_k)
+(:func:`viblin_wall_motion`): the exact motion half a step ahead, W (cos(omega t_{n+1/2}) - 1),
+to within W (omega dt)^2 / 8. The DEM (this module's :func:`wall_motion`, and the compiled
+kernel) places the walls at z_w(t_n) = W (cos(omega t_n) - 1) instead, half a step behind
+LIGGGHTS' mesh while the contacts see the same velocity v_w(t_n): its wall moves by
+u_w dt (:func:`wall_step_velocity`) in a step in which the contacts integrate v_w(t_n) dt.
+That half step is what made the DEM dissipate 0.1-0.3 % less than LIGGGHTS at 1 g
+(``benchmarks/bench_solver_difference.py``, README "Why the DEM dissipated less at 1 g");
+``walls="viblin"`` in :func:`pidpipe.dem.integrator.step` moves the NumPy reference's walls as
+LIGGGHTS does.
 
 The velocity v_w(t_n) is what the contact forces of step n see (LIGGGHTS' mesh velocity). The
 wall's displacement over step n is z_w(t_n) - z_w(t_{n-1}), and its mean velocity over the
@@ -20,6 +31,10 @@ import math
 import numpy as np
 
 from pidpipe.cell.geometry import HexCell
+
+WALL_MOTIONS = ("exact", "viblin")
+"""How the DEM's walls move: ``exact``, z_w(t_n) (:func:`wall_motion`, every DEM run), or
+``viblin``, where LIGGGHTS' mesh is (:func:`viblin_wall_motion`)."""
 
 
 def wall_motion(time_s: float, amplitude_m: np.ndarray, omega_rad_s: float
@@ -71,6 +86,31 @@ def wall_step_velocity(step: int, timestep_s: float, amplitude_m: np.ndarray,
     mid_phase = omega_rad_s * (step - 0.5) * timestep_s
     half_step_phase = 0.5 * omega_rad_s * timestep_s
     return amplitude_m * (-2.0 * math.sin(mid_phase) * math.sin(half_step_phase) / timestep_s)
+
+
+def viblin_wall_motion(step: int, timestep_s: float, amplitude_m: np.ndarray,
+                       omega_rad_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Wall displacement and velocity along z after step n, as LIGGGHTS' viblin moves its mesh.
+
+    The mesh moves by v_w(t_k) dt in every step k, so after step n it is at
+    ``dt * sum_{k=1..n} v_w(t_k) = -W omega dt (cos(theta/2) - cos((n + 1/2) theta)) / (2 sin(theta/2))``
+    with theta = omega dt (the sum in closed form), and its velocity is v_w(t_n).
+
+    Parameters
+    ----------
+    step, timestep_s, amplitude_m, omega_rad_s
+        As :func:`wall_step_velocity` (step 0 is the start, at rest).
+
+    Returns
+    -------
+    z_m, v_m_s : ndarray, shape (n_batch,)
+        The mesh's displacement (m) and velocity (m/s); its move over step n is v_m_s * dt.
+    """
+    theta = omega_rad_s * timestep_s
+    half = 0.5 * theta
+    z = (-amplitude_m * omega_rad_s * timestep_s
+         * (math.cos(half) - math.cos((step + 0.5) * theta)) / (2.0 * math.sin(half)))
+    return z, amplitude_m * (-omega_rad_s * math.sin(omega_rad_s * step * timestep_s))
 
 
 def wall_planes(cell: HexCell) -> tuple[np.ndarray, np.ndarray]:

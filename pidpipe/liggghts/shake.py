@@ -61,7 +61,7 @@ the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
 
 def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
                       packings: Packing | Sequence[Packing], workdir: Path,
-                      movie: MovieSettings | None = None) -> dict:
+                      movie: MovieSettings | None = None, mesh_subdivisions: int = 1) -> dict:
     """Write the cells' wall mesh and the shake deck of a case; return the run's plan.
 
     Parameters
@@ -77,6 +77,10 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
         Dump a movie (:mod:`pidpipe.liggghts.movie`); off if None. The bed's motion within the
         cycle is sampled as ``settings.motion`` says (:mod:`pidpipe.liggghts.motion`; off if
         None). With both off the deck is the plain shake deck.
+    mesh_subdivisions : int
+        Pieces each hexagon side of the wall mesh is cut into (1: the mesh every run uses; more
+        only to measure what the edges of a flat face do,
+        :func:`pidpipe.cell.geometry.cell_wall_triangles`).
 
     Returns
     -------
@@ -95,7 +99,7 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
     cycles = settings.sampling.transient_cycles_at(case.freq_hz) + settings.sampling.measured_cycles
     radius = scene.radius_m
     layout = side_by_side(cell, [p.n_spheres for p in packings], radius)
-    write_cells_mesh(workdir / MESH_FILE, cell, layout)
+    write_cells_mesh(workdir / MESH_FILE, cell, layout, subdivisions=mesh_subdivisions)
     centres = [p.centres() for p in packings]
     values = common_values(scene, place_packings(layout, centres), plan.timestep_s, MESH_FILE,
                            case.case_id, "shake",
@@ -170,7 +174,7 @@ def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
 
 def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
              workdir: str | Path, movie: MovieSettings | None = None,
-             movie_dir: str | Path | None = None) -> dict:
+             movie_dir: str | Path | None = None, mesh_subdivisions: int = 1) -> dict:
     """Shake one case in LIGGGHTS and return its record.
 
     Parameters
@@ -187,6 +191,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
         Also write a ParaView movie of the run's last cycles into ``movie_dir``
         (default ``workdir/movie``); off if None.
     movie_dir : path, optional
+    mesh_subdivisions : int
+        As :func:`render_shake_deck` (1, the default, in every campaign run).
 
     Returns
     -------
@@ -200,7 +206,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     for stale in (POWER_FILE, CELL_POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
                   MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
         (workdir / stale).unlink(missing_ok=True)
-    plan = render_shake_deck(settings, case, packings, workdir, movie=movie)
+    plan = render_shake_deck(settings, case, packings, workdir, movie=movie,
+                             mesh_subdivisions=mesh_subdivisions)
     engine = run_deck(plan["deck"], case.case_id)
     cells, series, ledger_mismatch = read_cell_series(plan["scene"], plan, workdir)
     sampling = settings.sampling

@@ -83,3 +83,33 @@ def test_coupon_cell_count_matches_source():
 def test_bad_cell_dimensions_rejected(bad):
     with pytest.raises(ValueError, match="positive finite"):
         HexCell(bad, 25.4e-3)
+
+
+@pytest.mark.parametrize("n", [2, 4])
+def test_subdivided_walls_are_the_same_closed_surface_without_a_vertex_inside_a_face(n):
+    points, triangles = cell_wall_triangles(CELL, subdivisions=n)
+    assert len(points) == 12 * n
+    assert len(triangles) == 12 * n + 2 * (6 * n - 2)
+    for key, uses in _edges(triangles).items():
+        assert len(uses) == 2, f"edge {key} is used by {len(uses)} triangles"
+        assert uses[0] != uses[1], f"edge {key} is traversed the same way twice"
+    normals = triangle_normals(points, triangles)
+    centroids = points[triangles].mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", normals, -centroids) > 0)
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    assert np.all(np.linalg.norm(np.cross(b - a, c - a), axis=1) > 1e-3 * CELL.area_m2)
+    volume = -np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0
+    assert volume == pytest.approx(CELL.volume_m3, rel=1e-12)
+    # every vertex lies on the hexagon's boundary: on (at least) one side wall's plane
+    normals8, offsets8 = CELL.planes()
+    distance = points @ normals8[:6].T + offsets8[:6]
+    assert np.all(np.min(np.abs(distance), axis=1) < 1e-12)
+
+
+def test_one_subdivision_is_the_campaigns_mesh_and_a_bad_count_is_refused():
+    default = cell_wall_triangles(CELL)
+    explicit = cell_wall_triangles(CELL, subdivisions=1)
+    assert np.array_equal(default[0], explicit[0]) and np.array_equal(default[1], explicit[1])
+    for bad in (0, 1.5):
+        with pytest.raises(ValueError, match="subdivisions"):
+            cell_wall_triangles(CELL, subdivisions=bad)

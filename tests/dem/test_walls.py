@@ -1,4 +1,4 @@
-"""Wall motion: LIGGGHTS' viblin, z = W (cos wt - 1), starting at rest."""
+"""Wall motion: the DEM's z_w = W (cos wt - 1), starting at rest, and where LIGGGHTS' viblin puts its mesh."""
 
 from __future__ import annotations
 
@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from pidpipe.dem.walls import wall_motion, wall_step_velocity
+from pidpipe.dem import reference
+from pidpipe.dem.walls import viblin_wall_motion, wall_motion, wall_step_velocity
+from tests.dem.conftest import spec_scene
 
 
 def test_the_base_motion_starts_at_rest_and_returns_after_a_period():
@@ -42,3 +44,27 @@ def test_step_velocity_is_the_walls_move_over_the_step_divided_by_dt():
         accel = -amplitude[0] * omega**2 * math.cos(omega * step * dt)
         largest_lag = amplitude[0] * omega**2 * dt / 2
         assert v_end - mean_v == pytest.approx(0.5 * accel * dt, rel=0, abs=1e-3 * largest_lag)
+
+
+def test_viblin_walls_are_where_liggghts_moves_its_mesh():
+    """LIGGGHTS' viblin moves the mesh by v_w(t_n) dt in step n: the closed form is that sum,
+    half a step ahead of z_w(t_n), and its move over a step is v_w(t_n) dt."""
+    amplitude, omega, steps = np.array([2.5e-7]), 2 * math.pi * 1000.0, 1112
+    dt = 1e-3 / steps
+    z_sum = 0.0
+    for step in range(steps + 1):
+        (z,), (v,) = viblin_wall_motion(step, dt, amplitude, omega)
+        _, (v_exact,) = wall_motion(step * dt, amplitude, omega)
+        assert v == pytest.approx(v_exact, rel=1e-13)
+        if step:
+            z_sum += v * dt
+        assert z == pytest.approx(z_sum, rel=0, abs=1e-9 * amplitude[0])
+        (z_ahead,), _ = wall_motion((step + 0.5) * dt, amplitude, omega)
+        assert z - z_ahead == pytest.approx(0.0, abs=amplitude[0] * (omega * dt) ** 2 / 4)
+    assert z == pytest.approx(0.0, abs=1e-9 * amplitude[0])
+
+
+def test_an_unknown_wall_motion_is_refused():
+    scene, state, ws = reference.start(spec_scene(), np.array([[0.0, 0.0, -0.0114]]))
+    with pytest.raises(ValueError, match="walls must be one of exact, viblin"):
+        reference.advance(scene, state, ws, 1, walls="sine")

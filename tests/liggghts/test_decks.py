@@ -63,6 +63,21 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
     _compare("shake_two_cells.lmp", text)
 
 
+def test_shake_deck_writes_the_subdivided_mesh_only_when_asked(tmp_path):
+    """mesh_subdivisions (benchmarks/bench_solver_difference.py) changes the wall mesh and
+    nothing else; the default is the campaign's mesh of 20 triangles per cell."""
+    import meshio
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    default = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path / "a")
+    finer = render_shake_deck(_plain(load_config()), CaseSpec(500, 5, 10), _packing(), tmp_path / "b",
+                              mesh_subdivisions=4)
+    assert default["deck"].read_text() == finer["deck"].read_text()
+    assert meshio.read(tmp_path / "a" / "cell.stl").cells_dict["triangle"].shape == (20, 3)
+    assert meshio.read(tmp_path / "b" / "cell.stl").cells_dict["triangle"].shape == (92, 3)
+
+
 def test_shake_deck_without_rotation_and_friction_golden(tmp_path):
     cfg = load_config()
     cfg["fidelity"].update(rotation=False, friction=False, youngs_modulus_scale=0.1)
