@@ -3,14 +3,17 @@
 One step, in LIGGGHTS' order:
 
 1. initial_integrate: v += dt/2 F/m; x += dt v; omega += dt/2 T/I
-2. the clock advances; the walls move to z_w(t + dt) (``fix move/mesh`` initial_integrate)
+2. the clock advances; the walls move by v_w(t + dt) dt, as LIGGGHTS' ``fix move/mesh viblin``
+   moves its mesh in initial_integrate (:func:`pidpipe.dem.walls.viblin_wall_motion`)
 3. forces at the new positions with the half-step velocities (pair, walls, gravity); the
-   energy terms of the step use the wall's actual displacement over it
-   (:func:`pidpipe.dem.walls.wall_step_velocity`)
+   energy terms of the step use the wall's actual displacement over it (v_w dt; with
+   ``walls="exact"``, :func:`pidpipe.dem.walls.wall_step_velocity`)
 4. final_integrate: v += dt/2 F/m; omega += dt/2 T/I
 
-The walls are at z_w(t + dt) exactly, as in the compiled kernel; ``walls="viblin"`` puts them
-where LIGGGHTS' mesh is instead (:func:`pidpipe.dem.walls.viblin_wall_motion`).
+The walls are where LIGGGHTS' mesh is, as in the compiled kernel (``walls="viblin"``, the
+default); ``walls="exact"`` puts them at z_w(t + dt) = W (cos(omega (t + dt)) - 1) with the
+contacts seeing v_w(t + dt), the DEM's walls before 2026-12-01, kept to measure what that cost
+(``benchmarks/bench_solver_difference.py``).
 """
 
 from __future__ import annotations
@@ -26,16 +29,16 @@ from pidpipe.dem.walls import WALL_MOTIONS, viblin_wall_motion, wall_motion, wal
 def set_up(scene: Scene, state: State, ws: Workspace) -> None:
     """Evaluate the forces of the initial state (LIGGGHTS' set-up: no history update)."""
     ws.amplitude_m, ws.omega_rad_s = scene.amplitude_m, scene.omega_rad_s
-    z, vz = wall_motion(state.step * scene.timestep_s, ws.amplitude_m, ws.omega_rad_s)
+    z, vz = viblin_wall_motion(state.step, scene.timestep_s, ws.amplitude_m, ws.omega_rad_s)
     compute_forces(scene, state, ws, z, vz, update_history=False)
     clear_step_terms(ws)
 
 
-def step(scene: Scene, state: State, ws: Workspace, walls: str = "exact") -> None:
+def step(scene: Scene, state: State, ws: Workspace, walls: str = "viblin") -> None:
     """Advance the batch by one timestep; the step's energy terms are left in ``ws``.
 
-    ``walls`` is one of :data:`pidpipe.dem.walls.WALL_MOTIONS`: ``exact`` (z_w(t + dt), every
-    DEM run) or ``viblin`` (where LIGGGHTS' mesh is; its move over the step is v_w dt).
+    ``walls`` is one of :data:`pidpipe.dem.walls.WALL_MOTIONS`: ``viblin`` (where LIGGGHTS'
+    mesh is; its move over the step is v_w dt; every DEM run) or ``exact`` (z_w(t + dt)).
     """
     if walls not in WALL_MOTIONS:
         raise ValueError(f"walls must be one of {', '.join(WALL_MOTIONS)}, got {walls!r}")

@@ -41,7 +41,7 @@ def start(scene: Scene, positions_m, velocities_m_s=None, angular_velocities_rad
 
 def advance(scene: Scene, state: State, ws: Workspace, n_steps: int,
             observer: Callable[[State, Workspace], None] | None = None,
-            walls: str = "exact") -> None:
+            walls: str = "viblin") -> None:
     """Take ``n_steps`` steps, calling ``observer(state, ws)`` after each one if given (``walls``:
     as :func:`pidpipe.dem.integrator.step`)."""
     for _ in range(int(n_steps)):
@@ -51,9 +51,9 @@ def advance(scene: Scene, state: State, ws: Workspace, n_steps: int,
 
 
 def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int,
-               walls: str = "exact") -> dict:
+               walls: str = "viblin") -> dict:
     """As :func:`pidpipe.dem.run.run_cycles` (the same keys and shapes); ``walls`` as
-    :func:`pidpipe.dem.integrator.step` (``viblin``: where LIGGGHTS' mesh is, not the kernel's)."""
+    :func:`pidpipe.dem.integrator.step` (``viblin``, the default: where LIGGGHTS' mesh is, as in the kernel)."""
     n_batch = state.n_batch
     work = np.zeros((n_batch, n_cycles))
     gross = np.zeros((n_batch, n_cycles))

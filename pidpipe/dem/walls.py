@@ -8,20 +8,20 @@ wall does not rotate, so a wall contact's normal is the plane's inward normal th
 Where the mesh is: LIGGGHTS 3.8 (``MeshMoverVibLin::initial_integrate``) moves it by
 v_w(t_n) dt in step n, so after step n it is at dt * sum_{k<=n} v_w(t_k)
 (:func:`viblin_wall_motion`): the exact motion half a step ahead, W (cos(omega t_{n+1/2}) - 1),
-to within W (omega dt)^2 / 8. The DEM (this module's :func:`wall_motion`, and the compiled
-kernel) places the walls at z_w(t_n) = W (cos(omega t_n) - 1) instead, half a step behind
-LIGGGHTS' mesh while the contacts see the same velocity v_w(t_n): its wall moves by
-u_w dt (:func:`wall_step_velocity`) in a step in which the contacts integrate v_w(t_n) dt.
-That half step is what made the DEM dissipate 0.1-0.3 % less than LIGGGHTS at 1 g
-(``benchmarks/bench_solver_difference.py``, README "Why the DEM dissipated less at 1 g");
-``walls="viblin"`` in :func:`pidpipe.dem.integrator.step` moves the NumPy reference's walls as
-LIGGGHTS does.
+to within W (omega dt)^2 / 8. The DEM (the compiled kernel, and the NumPy reference by
+default) puts its walls there too, and its contacts see v_w(t_n), which is then the walls' own
+move over the step. Until 2026-12-01 the DEM placed them at z_w(t_n) = W (cos(omega t_n) - 1)
+(:func:`wall_motion`, ``walls="exact"`` in :func:`pidpipe.dem.integrator.step`), half a step
+behind LIGGGHTS' mesh while the contacts saw the same v_w(t_n): the wall moved by u_w dt
+(:func:`wall_step_velocity`) in a step in which the contacts integrated v_w(t_n) dt. That
+half step made the DEM dissipate 0.1-0.3 % less than LIGGGHTS at 1 g
+(``benchmarks/bench_solver_difference.py``, README "Why the DEM dissipated less at 1 g").
 
-The velocity v_w(t_n) is what the contact forces of step n see (LIGGGHTS' mesh velocity). The
-wall's displacement over step n is z_w(t_n) - z_w(t_{n-1}), and its mean velocity over the
-step, :func:`wall_step_velocity`, is v_w at the middle of the step (times
-sin(omega dt/2)/(omega dt/2)): using v_w(t_n) instead for the work of the walls is half a
-step late, an error of (dt/2) * integral(F a_w dt) per cycle.
+With the exact walls, the wall's displacement over step n is z_w(t_n) - z_w(t_{n-1}), and its
+mean velocity over the step, :func:`wall_step_velocity`, is v_w at the middle of the step
+(times sin(omega dt/2)/(omega dt/2)): using v_w(t_n) instead for the work of the walls would be
+half a step late, an error of (dt/2) * integral(F a_w dt) per cycle. With LIGGGHTS' walls the
+move over step n is v_w(t_n) dt itself.
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ import numpy as np
 from pidpipe.cell.geometry import HexCell
 
 WALL_MOTIONS = ("exact", "viblin")
-"""How the DEM's walls move: ``exact``, z_w(t_n) (:func:`wall_motion`, every DEM run), or
-``viblin``, where LIGGGHTS' mesh is (:func:`viblin_wall_motion`)."""
+"""How the DEM's walls move: ``viblin``, where LIGGGHTS' mesh is (:func:`viblin_wall_motion`,
+every DEM run), or ``exact``, z_w(t_n) (:func:`wall_motion`, the DEM's walls before 2026-12-01)."""
 
 
 def wall_motion(time_s: float, amplitude_m: np.ndarray, omega_rad_s: float
@@ -106,11 +106,12 @@ def viblin_wall_motion(step: int, timestep_s: float, amplitude_m: np.ndarray,
     z_m, v_m_s : ndarray, shape (n_batch,)
         The mesh's displacement (m) and velocity (m/s); its move over step n is v_m_s * dt.
     """
+    # the compiled kernel's operations in its order (pidpipe.dem.kernel._viblin_unit_z), so that
+    # the reference and the kernel round alike
     theta = omega_rad_s * timestep_s
     half = 0.5 * theta
-    z = (-amplitude_m * omega_rad_s * timestep_s
-         * (math.cos(half) - math.cos((step + 0.5) * theta)) / (2.0 * math.sin(half)))
-    return z, amplitude_m * (-omega_rad_s * math.sin(omega_rad_s * step * timestep_s))
+    unit_z = -theta * (math.cos(half) - math.cos((step + 0.5) * theta)) / (2.0 * math.sin(half))
+    return amplitude_m * unit_z, amplitude_m * (-omega_rad_s * math.sin(omega_rad_s * (step * timestep_s)))
 
 
 def wall_planes(cell: HexCell) -> tuple[np.ndarray, np.ndarray]:

@@ -84,8 +84,11 @@ def test_kernel_follows_the_reference_step_by_step(settled_11, name):
 
 def test_cycle_ledgers_of_one_call_equal_the_references(settled_11):
     """run_cycles: a whole cycle (1112 steps at 1000 Hz) in one kernel call. Every energy and
-    ledger agrees to 1e-11 of the work exchanged with the walls in the cycle (measured: 5e-12
-    at 10 g, 1.4e-12 at 5 g)."""
+    ledger agrees to 3e-11 of the work exchanged with the walls in the cycle (measured with the
+    walls where LIGGGHTS' mesh is: 1.3e-11 at 10 g, in the wall friction term, 5e-13 at 5 g;
+    with the former exact walls 5e-12 and 1.4e-12). The two codes sum the same terms in
+    different orders, and the impacts at 10 g amplify those roundings over the cycle; the
+    step-by-step test above holds positions and energies to 1e-12 over 1000 steps."""
     scene = spec_scene(freq_hz=1000.0, accel_g=[10.0, 5.0])
     scene, ref_state, ref_ws = reference.start(scene, settled_11)
     mine = run_cycles(*start(scene, settled_11), 1)
@@ -97,7 +100,7 @@ def test_cycle_ledgers_of_one_call_equal_the_references(settled_11):
         if key.endswith("_z_m"):
             np.testing.assert_allclose(mine[key], expected, rtol=1e-13, err_msg=key)
         else:
-            np.testing.assert_allclose(mine[key], expected, rtol=0, atol=1e-11 * exchanged,
+            np.testing.assert_allclose(mine[key], expected, rtol=0, atol=3e-11 * exchanged,
                                        err_msg=key)
     assert np.all(theirs["dissipated_terms_j"] > 0)
 
