@@ -14,4 +14,5 @@ run_step(
     history_csv=snakemake.output.history,
     results_json=snakemake.output.json,
     bootstrap_csv=snakemake.output.bootstrap,
+    workers=snakemake.threads,
 )
