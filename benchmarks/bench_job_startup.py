@@ -3,7 +3,7 @@
 Part 1, one job of each kind. A scratch copy of the workflow runs a one-case DEM campaign
 (engine dem, pour_engine dem; 1000 Hz, 10 g, 25 %; the config's cells_per_run pours) with
 ``snakemake cases --skip-script-cleanup``, which keeps the Python script Snakemake made for
-each job. The ``pour_packing`` and ``simulate_case`` scripts are then run again, ``--repeats``
+each job. The ``pour_packing`` and ``simulate_dem_cases`` (here one case) scripts are then run again, ``--repeats``
 times each in a fresh process as Snakemake runs them, timed phase by phase from inside
 (CPU and wall; the machine is shared, so CPU is the steadier figure):
 
@@ -120,7 +120,7 @@ print(json.dumps({"phases": phases, "loads": loads, "pool_pours": pool[2]}))
 # What each step imports on its way to the engine (lazily, inside the step's functions).
 STEP_IMPORTS = {
     "pour_packing": "pidpipe.dem.pouring,pidpipe.dem.pour,pidpipe.cell.packing",
-    "simulate_case": "pidpipe.dem.case,pidpipe.cell.packing,pidpipe.cell.scene,"
+    "simulate_dem_cases": "pidpipe.dem.case,pidpipe.cell.packing,pidpipe.cell.scene,"
                      "pidpipe.measurement.adaptive,pidpipe.measurement.cost_model,pidpipe.liggghts.shake",
 }
 
@@ -154,8 +154,8 @@ def metadata(work: Path) -> list[dict]:
 def jobs_of(rows: list[dict]) -> list[dict]:
     """One row per job (outputs of one job share start and end)."""
     seen = {}
-    for row in rows:
-        seen.setdefault((row["rule"], row["start"], row["end"]), row)
+    for row in rows:        # a job's outputs are recorded a few ms apart
+        seen.setdefault((row["rule"], round(row["start"], 1), round(row["end"], 1)), row)
     return sorted(seen.values(), key=lambda r: r["start"])
 
 
@@ -192,7 +192,7 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                      f"{len(spans['pour_packing'])} pours, the check, 1 case) on {cores} cores: "
                      f"{wall:.1f} s wall, {cpu:.1f} s CPU; Snakemake before the first job and after "
                      f"the last {wall - (last - first):.1f} s.")
-        for rule in ("pour_packing", "simulate_case"):
+        for rule in ("pour_packing", "simulate_dem_cases"):
             if rule in bench:
                 lines.append(f"- {rule}: job span (Snakemake) median {statistics.median(spans[rule]):.2f} s; "
                              f"its script's process (benchmark file) median wall "
@@ -200,9 +200,9 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                              f"{statistics.median(b[1] for b in bench[rule]):.2f} s")
         empty = [timed_run([PYTHON, "-c", "pass"], work)[:2] for _ in range(repeats)]
         lines += ["", f"Each job's script run again in a fresh process, {repeats} times (median; wall / CPU s):",
-                  "", "| phase | pour_packing wall | CPU | simulate_case wall | CPU |", "|---|---|---|---|---|"]
+                  "", "| phase | pour_packing wall | CPU | simulate_dem_cases wall | CPU |", "|---|---|---|---|---|"]
         results, outer = {}, {}
-        for rule in ("pour_packing", "simulate_case"):
+        for rule in ("pour_packing", "simulate_dem_cases"):
             script = sorted((work / ".snakemake" / "scripts").glob(f"*.{rule}.py"))[0]
             runs = []
             outer[rule] = []
@@ -217,12 +217,12 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
             table[phase] = {r: [run["phases"][phase] for run in results[r]] for r in results}
         for phase, values in table.items():
             cells = []
-            for rule in ("pour_packing", "simulate_case"):
+            for rule in ("pour_packing", "simulate_dem_cases"):
                 w, c = median_pair(values[rule])
                 cells += [f"{w:.3f}", f"{c:.3f}"]
             lines.append(f"| {phase} | " + " | ".join(cells) + " |")
         cells = []
-        for rule in ("pour_packing", "simulate_case"):
+        for rule in ("pour_packing", "simulate_dem_cases"):
             w, c = median_pair(outer[rule])
             cells += [f"**{w:.3f}**", f"**{c:.3f}**"]
         lines.append("| whole process (timed from outside) | " + " | ".join(cells) + " |")
@@ -259,12 +259,12 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
     t0 = min(j["start"] for j in jobs)
     end = max(j["end"] for j in jobs)
     stages = {"pours": ["pour_packing"], "packing check": ["check_packings"],
-              "cases": ["simulate_case"]}
+              "cases": ["simulate_case", "simulate_dem_cases"]}
     lines += ["", f"Campaign {campaign}: {len(jobs)} jobs, first job start to last job end "
               f"{end - t0:.1f} s on {cores} cores; job time {sum(j['end'] - j['start'] for j in jobs):.1f} s.",
               "", "| stage | jobs | from s | to s | span s | job time s | idle core-s in span |",
               "|---|---|---|---|---|---|---|"]
-    case_end = max((j["end"] for j in jobs if j["rule"] == "simulate_case"), default=t0)
+    case_end = max((j["end"] for j in jobs if j["rule"] in stages["cases"]), default=t0)
     after = [j for j in jobs if j["rule"] not in sum(stages.values(), [])]
     groups = {**{name: [j for j in jobs if j["rule"] in rules] for name, rules in stages.items()},
               "after the cases": [j for j in after if j["start"] >= case_end - 1e-6],
