@@ -254,15 +254,28 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                          + ", matplotlib " + ("imported" if "matplotlib" in by_package else "not imported"))
 
 
+def rule_threads(campaign: Path, cores: int) -> dict[str, int]:
+    """``threads:`` of each rule in the campaign's workflow/rules (1 where not given; at most cores)."""
+    threads = {}
+    for smk in (campaign / "workflow" / "rules").glob("*.smk"):
+        for match in re.finditer(r"^rule (\w+):\n((?:[ \t]+.*\n|\n)*)", smk.read_text(), re.M):
+            given = re.search(r"^\s+threads:\s*(\d+)", match.group(2), re.M)
+            threads[match.group(1)] = min(cores, int(given.group(1))) if given else 1
+    return threads
+
+
 def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
     jobs = jobs_of(metadata(campaign))
+    threads = rule_threads(campaign, cores)
+    for job in jobs:
+        job["cores"] = threads.get(job["rule"], 1)
     t0 = min(j["start"] for j in jobs)
     end = max(j["end"] for j in jobs)
     stages = {"pours": ["pour_packing"], "packing check": ["check_packings"],
               "cases": ["simulate_case", "simulate_dem_cases"]}
     lines += ["", f"Campaign {campaign}: {len(jobs)} jobs, first job start to last job end "
               f"{end - t0:.1f} s on {cores} cores; job time {sum(j['end'] - j['start'] for j in jobs):.1f} s.",
-              "", "| stage | jobs | from s | to s | span s | job time s | idle core-s in span |",
+              "", "| stage | jobs | from s | to s | span s | job time s | idle core-s in span (a job holds its rule's threads) |",
               "|---|---|---|---|---|---|---|"]
     case_end = max((j["end"] for j in jobs if j["rule"] in stages["cases"]), default=t0)
     after = [j for j in jobs if j["rule"] not in sum(stages.values(), [])]
@@ -273,7 +286,7 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
         if not group:
             continue
         start, stop = min(j["start"] for j in group), max(j["end"] for j in group)
-        busy_in_span = sum(min(j["end"], stop) - max(j["start"], start) for j in jobs
+        busy_in_span = sum(j["cores"] * (min(j["end"], stop) - max(j["start"], start)) for j in jobs
                            if j["end"] > start and j["start"] < stop)
         lines.append(f"| {name} | {len(group)} | {start - t0:.1f} | {stop - t0:.1f} | {stop - start:.1f} | "
                      f"{sum(j['end'] - j['start'] for j in group):.1f} | "
