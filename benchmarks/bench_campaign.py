@@ -60,10 +60,14 @@ def main() -> None:
             else:
                 config[path] = yaml.safe_load(value)
         (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+        load_before = Path("/proc/loadavg").read_text().split()[:3]
+        cpu_before = _children_cpu_s()
         start = time.perf_counter()
         done = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "--cores", str(args.cores),
                                "--quiet", "rules", "all"], cwd=work, check=False, stdout=subprocess.DEVNULL)
         wall = time.perf_counter() - start
+        cpu = _children_cpu_s() - cpu_before
+        load_after = Path("/proc/loadavg").read_text().split()[:3]
         if done.returncode != 0:
             sys.exit(f"snakemake failed (exit {done.returncode}); nothing recorded")
         rows = []
@@ -101,7 +105,18 @@ def main() -> None:
         f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached else ' (missed)'}"
         for row in counted.sort_values("case_id").itertuples())]
     lines.append(f"\nSummed job time / (wall x cores) = {jobs['s'].sum() / (wall * args.cores):.2f} (core use).")
+    lines.append(f"CPU of Snakemake and every job (all processes) {cpu:.0f} s, i.e. {cpu / args.cores:.0f} s on "
+                 f"{args.cores} busy cores; load average (1, 5, 15 min) before {' '.join(load_before)}, "
+                 f"after {' '.join(load_after)} (other sessions share the cores).")
     append("Whole campaign", f"python benchmarks/bench_campaign.py {Path(args.config).name}", lines)
+
+
+def _children_cpu_s() -> float:
+    """User + system CPU of this process's finished children (Snakemake and its jobs), s."""
+    import resource
+
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def case_row(record: dict) -> dict:

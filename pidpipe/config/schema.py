@@ -13,9 +13,8 @@ from __future__ import annotations
 import copy
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import jsonschema
 import yaml
 
 from pidpipe.config.derived import (
@@ -25,6 +24,9 @@ from pidpipe.config.derived import (
     spheres_for_fill,
 )
 from pidpipe.errors import ConfigError
+
+if TYPE_CHECKING:
+    import jsonschema
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 
@@ -80,6 +82,8 @@ def validate_config(raw: Any) -> dict:
     """
     if not isinstance(raw, dict):
         raise ConfigError(f"the config must be a mapping of keys to values, got {type(raw).__name__}")
+    import jsonschema   # here, not at the top: a case job reads validated config only
+
     config = _read_exponent_numbers(copy.deepcopy(_plain(raw)))
     schema = load_schema()
     validator_class = _with_defaults(jsonschema.Draft202012Validator)
@@ -111,6 +115,8 @@ def _read_exponent_numbers(value: Any) -> Any:
 
 def _with_defaults(validator_class):
     """A validator class that fills ``default`` values of missing properties while validating."""
+    import jsonschema
+
     validate_properties = validator_class.VALIDATORS["properties"]
 
     def set_defaults(validator, properties, instance, schema):

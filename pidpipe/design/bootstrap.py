@@ -126,7 +126,7 @@ def winner(result: OptimisationResult, optimum) -> int:
 
 def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], budget: Budget,
                       search: Search, settings: Bootstrap,
-                      loo: float = float("nan")) -> pd.DataFrame:
+                      loo: float = float("nan"), workers: int = 1) -> pd.DataFrame:
     """Re-optimise every design on every draw; store the intervals in each result.
 
     Parameters
@@ -142,6 +142,9 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
     loo : float
         The surrogate's leave-one-out relative error (:func:`loo_rel_error`), reported with the
         intervals; NaN if not computed.
+    workers : int
+        Processes that share the draws (forked; each draw is seeded on its own, so the table is
+        the same for any number).
 
     Returns
     -------
@@ -152,17 +155,40 @@ def bootstrap_designs(surrogate: Surrogate, results: list[OptimisationResult], b
         ``local_optimum`` (index into the main result's local optima, -1 elsewhere) and
         ``ok`` (False where the draw's optimisation failed; its values are NaN).
     """
-    rows = []
     values = resampled_values(surrogate, settings.draws, settings.seed)
-    for draw, draw_values in enumerate(values):
-        model = refit_values(surrogate, draw_values)
-        for res in results:
-            rows.append(_one_draw(model, res, budget, search, settings, draw))
-    draws = pd.DataFrame(rows, columns=list(DRAW_COLUMNS))
+    job = (surrogate, results, budget, search, settings, values)
+    if workers > 1 and settings.draws > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=int(workers), initializer=_share, initargs=(job,),
+                                 mp_context=multiprocessing.get_context("fork")) as pool:
+            per_draw = list(pool.map(_draw_rows, range(settings.draws),
+                                     chunksize=max(1, settings.draws // (4 * int(workers)))))
+    else:
+        _share(job)
+        per_draw = [_draw_rows(draw) for draw in range(settings.draws)]
+    draws = pd.DataFrame([row for rows in per_draw for row in rows], columns=list(DRAW_COLUMNS))
     for res in results:
         mine = draws[(draws["environment"] == res.environment.name) & (draws["design"] == res.kind)]
         res.uncertainty = summarise(res, mine, settings, loo)
     return draws
+
+
+_JOB: tuple = ()
+"""What every draw of the running bootstrap reads (set in each worker by :func:`_share`)."""
+
+
+def _share(job: tuple) -> None:
+    global _JOB
+    _JOB = job
+
+
+def _draw_rows(draw: int) -> list[dict]:
+    """Every design re-optimised on draw ``draw``'s refitted surrogate (one row each)."""
+    surrogate, results, budget, search, settings, values = _JOB
+    model = refit_values(surrogate, values[draw])
+    return [_one_draw(model, res, budget, search, settings, draw) for res in results]
 
 
 def _one_draw(model: Surrogate, res: OptimisationResult, budget: Budget, search: Search,

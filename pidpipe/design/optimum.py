@@ -35,7 +35,7 @@ class Optimum:
 
 
 def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget: Budget,
-                   search: Search, bootstrap: Bootstrap) -> Optimum:
+                   search: Search, bootstrap: Bootstrap, workers: int = 1) -> Optimum:
     """Optimise every design, then bootstrap them when the table has SEMs and draws > 0.
 
     Parameters
@@ -45,6 +45,8 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
     budget : Budget
     search : Search
     bootstrap : Bootstrap
+    workers : int
+        Processes the bootstrap's draws are shared among (the same draws for any number).
 
     Returns
     -------
@@ -61,7 +63,8 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
         note = ("the table has no ceq_coupon_sem_ns_m for every fitted row: no bootstrap, no "
                 "intervals")
     else:
-        draws = bootstrap_designs(surrogate, results, budget, search, bootstrap, loo=loo)
+        draws = bootstrap_designs(surrogate, results, budget, search, bootstrap, loo=loo,
+                                  workers=workers)
     if note:
         logger.warning(note)
         for res in results:

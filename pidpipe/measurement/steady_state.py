@@ -30,7 +30,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from pidpipe.measurement.statistics import block_means, standard_error
 
@@ -116,7 +115,36 @@ def halves_p_value(measured: np.ndarray, block: int) -> float:
     first, second = means[:half], means[half:2 * half]
     if np.ptp(first) == 0.0 and np.ptp(second) == 0.0:
         return 1.0 if first[0] == second[0] else 0.0
-    return float(stats.ttest_ind(first, second, equal_var=False).pvalue)
+    return welch_p_value(first, second)
+
+
+def welch_p_value(first: np.ndarray, second: np.ndarray) -> float:
+    """Two-sided p-value of Welch's t-test between two 1-D samples (float64).
+
+    The arithmetic of ``scipy.stats.ttest_ind(first, second, equal_var=False)`` (scipy 1.17:
+    variances as the mean squared deviation times n / (n - 1), a NaN degrees of freedom taken
+    as 1, p = 2 stdtr(df, -|t|)), to the last bit (tests/measurement/test_steady_state.py), with
+    only ``scipy.special``: ``scipy.stats`` costs a DEM case job some 0.6 s of CPU to import,
+    more than its kernel run at 1000 Hz (benchmarks/bench_job_startup.py).
+    """
+    from scipy.special import stdtr
+
+    a, b = np.asarray(first, dtype=float), np.asarray(second, dtype=float)
+    n1, n2 = a.shape[0], b.shape[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v1 = _sample_variance(a)
+        v2 = _sample_variance(b)
+        vn1, vn2 = v1 / n1, v2 / n2
+        df = (vn1 + vn2) ** 2 / (vn1 ** 2 / (n1 - 1) + vn2 ** 2 / (n2 - 1))
+        df = np.where(np.isnan(df), 1.0, df)
+        t = np.divide(np.mean(a) - np.mean(b), np.sqrt(vn1 + vn2))
+    return float(2 * stdtr(df, -np.abs(t)))
+
+
+def _sample_variance(x: np.ndarray) -> np.ndarray:
+    """Variance with n - 1 in the denominator, as scipy.stats' ``_var(x, ddof=1)`` computes it."""
+    n = np.asarray(x.shape[0], dtype=x.dtype)
+    return np.mean((x - np.mean(x, keepdims=True)) ** 2) * (n / (n - 1))
 
 
 def drift_fraction(energy_j: np.ndarray, dissipated_j: np.ndarray, transient_cycles: int) -> float:

@@ -175,6 +175,53 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
     return record
 
 
+def simulate_cases(config: dict, case_ids: list[str], packing_paths: list[list[str]],
+                   record_paths: list[str], workdirs: list[str], log_paths: list[str],
+                   packing_pool: str | None = None, movies: list[dict] | None = None) -> list[dict]:
+    """Several cases one after another in this process, each exactly as :func:`simulate_case`.
+
+    One process for several DEM cases pays the job's start-up once (Python, the imports, Numba
+    loading the compiled kernel: some 1.2 s of CPU per job, more than a 1000 Hz case's kernel
+    run; benchmarks/bench_job_startup.py). Each case gets its own record and log, the same
+    record as a job of its own would write (the engine's CPU and wall times aside).
+
+    Parameters
+    ----------
+    config, packing_pool :
+        As :func:`simulate_case`, shared by the cases.
+    case_ids, packing_paths, record_paths, workdirs, log_paths : list
+        One entry per case, in the same order (``packing_paths[i]``: case i's packings); each
+        case's messages go to its own log (and to the job's).
+    movies : list of dict, optional
+        Case i's movie settings (:func:`simulate_case`'s ``movie``); None: no movies.
+
+    Returns
+    -------
+    list of dict
+        The records written, in order.
+    """
+    sizes = {len(case_ids), len(packing_paths), len(record_paths), len(workdirs), len(log_paths)}
+    if movies is not None:
+        sizes.add(len(movies))
+    if len(sizes) != 1:
+        raise ValueError(f"simulate_cases: one entry per case in every list, got lengths {sorted(sizes)}")
+    root = logging.getLogger("pidpipe")
+    records = []
+    for i, case_id in enumerate(case_ids):
+        Path(log_paths[i]).parent.mkdir(parents=True, exist_ok=True)
+        handler = logging.FileHandler(log_paths[i], mode="a", encoding="utf-8")
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        root.addHandler(handler)
+        try:
+            records.append(simulate_case(config, case_id, list(packing_paths[i]), record_paths[i],
+                                         workdirs[i], log_paths[i], packing_pool,
+                                         movies[i] if movies is not None else None))
+        finally:
+            root.removeHandler(handler)
+            handler.close()
+    return records
+
+
 def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdir: str | Path,
                  pour_settings: PourSettings | None = None, packing_pool: str | Path | None = None,
                  movie: MovieSettings | None = None, movie_dir: str | Path | None = None) -> dict:

@@ -79,7 +79,7 @@ def environment_objects(environments: list[dict]) -> list:
 
 def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: dict,
                        optimisation: dict, results_csv: str, history_csv: str, results_json: str,
-                       bootstrap_csv: str) -> None:
+                       bootstrap_csv: str, workers: int = 1) -> None:
     """Every design of every environment on a saved surrogate, with its bootstrap; write the
     designs (CSV, JSON), the convergence histories and the bootstrap's draws (CSV).
 
@@ -91,6 +91,8 @@ def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: di
         :class:`~pidpipe.design.optimisation.Budget`'s fields (``steps.params.budget_params``).
     optimisation : dict
         The config's ``optimisation`` section (starts, seed, band rule, bootstrap).
+    workers : int
+        Processes the bootstrap's draws are shared among (the rule's threads; the same results).
     """
     from pidpipe.design.designs import (
         format_designs,
@@ -104,7 +106,8 @@ def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: di
 
     surrogate = load_surrogate(surrogate_path)
     optimum = optimise_panel(surrogate, environment_objects(environments), Budget(**budget),
-                             search_settings(optimisation), bootstrap_settings(optimisation["bootstrap"]))
+                             search_settings(optimisation), bootstrap_settings(optimisation["bootstrap"]),
+                             workers=workers)
     results = optimum.results
     for res in results:
         d = res.design

@@ -6,8 +6,6 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import pandas as pd
-
 from pidpipe.cases import CaseSpec
 from pidpipe.config.settings import PourSettings
 from pidpipe.errors import PackingError
@@ -86,4 +84,6 @@ def check_packings(packing_paths: list[str], case_ids: list[str], report_path: s
     if problems:
         raise PackingError(f"{len(problems)} of {len(packing_paths)} packing(s) refused, so no case "
                            "is run:\n  " + "\n  ".join(problems))
+    import pandas as pd     # here, not at the top: a pour job does not need it
+
     write_atomic(report_path, lambda tmp: pd.DataFrame(rows).to_csv(tmp, sep="\t", index=False))

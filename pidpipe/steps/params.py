@@ -65,6 +65,30 @@ def campaign_packing_ids(config: dict) -> list[str]:
                    for packing_id in case_packing_ids(config, case)})
 
 
+#: A wildcard constraint that matches nothing: a rule with it never runs.
+NEVER_MATCHES = r"(?!)"
+
+
+def dem_batch_fills(config: dict) -> list[str]:
+    """The fills (as case ids write them) that one ``simulate_dem_cases`` job shakes: the grid's."""
+    from pidpipe.cases import format_number
+
+    return [format_number(float(fill)) for fill in sorted(config["grid"]["fill_pct"])]
+
+
+def dem_batch_constraint(config: dict) -> str:
+    """Wildcard constraint of ``simulate_dem_cases``' frequency: any number with ``engine: dem``;
+    with LIGGGHTS one that matches nothing, so that every case is a ``simulate_case`` job of its
+    own there (LIGGGHTS' start-up is small beside its runs; a job per case keeps them parallel)."""
+    return WILDCARD_NUMBER if config["engine"] == "dem" else NEVER_MATCHES
+
+
+def dem_batch_case_ids(config: dict, freq: str, accel: str, replicate: str) -> list[str]:
+    """The cases of one ``simulate_dem_cases`` job: every fill at one frequency, acceleration and
+    replicate (the wildcards' text), in :func:`dem_batch_fills`' order."""
+    return [f"f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}" for fill in dem_batch_fills(config)]
+
+
 def budget_params(config: dict) -> dict:
     """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
     return Budget.from_config(config).as_params()

@@ -147,3 +147,45 @@ def test_a_dem_case_plans_its_runs_with_the_stored_dem_cost_model(packings, tmp_
     pilot = record["target"]["runs"][0]
     assert pilot["kind"] == "pilot" and record["solver"] == "numba-dem"
     assert pilot["planned_cpu_s"] == pytest.approx(model.run_cpu_s(2, packings[0].n_spheres, steps))
+
+
+def _without_timing(value):
+    """A record without its wall and CPU times and host (they differ from run to run)."""
+    if isinstance(value, dict):
+        return {k: _without_timing(v) for k, v in value.items()
+                if not any(t in k for t in ("wall_time", "cpu_time", "host"))}
+    if isinstance(value, list):
+        return [_without_timing(v) for v in value]
+    return value
+
+
+def test_cases_shaken_in_one_job_get_the_records_and_logs_of_jobs_of_their_own(packings, tmp_path):
+    """simulate_cases (rule simulate_dem_cases) writes each case the record simulate_case would,
+    and each case's messages into its own log."""
+    from pidpipe.cell.packing import save_packing
+    from pidpipe.config.stages import stage_config
+    from pidpipe.steps.cases import simulate_case, simulate_cases
+    from pidpipe.steps.run import run_step
+
+    config = short_config(transient=4, measured=4)
+    config["engine"] = "dem"
+    case_config = stage_config(config, "case")
+    paths = [str(save_packing(p, tmp_path / f"packing{k}.json")) for k, p in enumerate(packings)]
+    cases = [CaseSpec(1000, 10, 25), CaseSpec(1000, 5, 25)]
+    run_step(simulate_cases, str(tmp_path / "job.log"), config=case_config,     # as the rule runs it
+             case_ids=[c.case_id for c in cases], packing_paths=[paths[:1], paths[1:]],
+             record_paths=[str(tmp_path / f"{c.case_id}.json") for c in cases],
+             workdirs=[str(tmp_path / "work" / c.case_id) for c in cases],
+             log_paths=[str(tmp_path / "logs" / f"{c.case_id}.log") for c in cases])
+    records = [json.loads((tmp_path / f"{c.case_id}.json").read_text()) for c in cases]
+    alone = simulate_case(case_config, cases[1].case_id, paths[1:], str(tmp_path / "alone.json"),
+                          str(tmp_path / "alone"), str(tmp_path / "alone.log"))
+    same = json.dumps(_without_timing(records[1]), sort_keys=True)    # NaN == NaN here
+    assert same == json.dumps(_without_timing(alone), sort_keys=True)
+    for case, record in zip(cases, records):
+        assert record["case_id"] == case.case_id and record["solver"] == "numba-dem"
+        log = (tmp_path / "logs" / f"{case.case_id}.log").read_text()
+        assert f"case {case.case_id} (numba-dem)" in log and len(log.splitlines()) == 1
+        assert f"case {case.case_id} (numba-dem)" in (tmp_path / "job.log").read_text()
+    with pytest.raises(ValueError, match="one entry per case"):
+        simulate_cases(case_config, [cases[0].case_id], [paths[:1]], [], [], [])

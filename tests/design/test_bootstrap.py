@@ -144,3 +144,14 @@ def test_how_often_each_local_optimum_wins_is_counted():
     assert row["fill_pct_lo"] == lo and row["fill_pct_hi"] == hi
     assert row["bootstrap_used"] == 60 and 0 < row["surrogate_loo_rel_error"] < 0.2
     assert "r 3" in row["optimum_wins"] and "elsewhere" in row["optimum_wins"]
+
+
+def test_draws_shared_among_processes_give_the_same_table():
+    table = noisy_table(np.random.default_rng(3))
+    surrogate = fit_surrogate(table, method="tensor_spline")
+    result = optimise_design(surrogate, ENV, BUDGET, "band_mean", SEARCH)
+    settings = Bootstrap(draws=6, starts=1, seed=4)
+    alone = bootstrap_designs(surrogate, [result], BUDGET, SEARCH, settings)
+    shared = bootstrap_designs(surrogate, [result], BUDGET, SEARCH, settings, workers=2)
+    pd.testing.assert_frame_equal(alone, shared, check_exact=True)
+    assert alone["ok"].all() and alone["draw"].tolist() == list(range(6))

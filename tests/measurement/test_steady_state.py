@@ -3,6 +3,8 @@ of autocorrelated cycles (pidpipe.measurement.statistics.standard_error), on syn
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,7 @@ from pidpipe.measurement.steady_state import (
     assess_steady_state,
     halves_p_value,
     mser_truncation,
+    welch_p_value,
 )
 
 RNG_SEED = 20261123
@@ -79,6 +82,28 @@ def test_the_halves_test_false_alarm_rate_is_near_its_level():
     rng = np.random.default_rng(RNG_SEED)
     alarms = sum(halves_p_value(1.0 + 0.3 * rng.standard_normal(40), block=2) < 0.01 for _ in range(2000))
     assert alarms / 2000 < 0.02
+
+
+def test_the_welch_p_value_is_scipy_stats_to_the_last_bit():
+    """welch_p_value replaces scipy.stats.ttest_ind (too costly to import in every case job):
+    the records keep the same halves_p_value, so it must agree bit for bit."""
+    from scipy import stats
+
+    rng = np.random.default_rng(RNG_SEED)
+    samples = []
+    for _ in range(400):
+        n1, n2 = rng.integers(2, 60, size=2)
+        scale = 10.0 ** rng.uniform(-12, 3)
+        samples.append((scale * (1 + rng.standard_normal(n1)),
+                        scale * (1 + rng.uniform(-0.5, 0.5) + rng.standard_normal(n2))))
+    samples += [(np.full(5, 2.0), np.array([1.0, 2.0, 3.0, 2.5])),       # one half constant
+                (np.array([1.0, 1.0 + 1e-15, 1.0]), np.array([1.0, 1.0, 1.0 + 2e-15]))]
+    for first, second in samples:
+        with warnings.catch_warnings():     # scipy's warning on the nearly constant pair
+            warnings.simplefilter("ignore", RuntimeWarning)
+            expected = float(stats.ttest_ind(first, second, equal_var=False).pvalue)
+        assert welch_p_value(first, second) == expected or (np.isnan(expected) and np.isnan(
+            welch_p_value(first, second)))
 
 
 def test_stored_energy_drift_flags_not_steady():

@@ -5,6 +5,7 @@ import sys
 from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
+                                  dem_batch_case_ids, dem_batch_constraint, dem_batch_fills,
                                   environment_params, inspected_cases, map_uncertainty_params,
                                   optimisation_params, verify_case_config, verify_params)
 from pidpipe.steps.verify import verify_case_ids
@@ -72,6 +73,53 @@ def get_case_runtime_min(wildcards, attempt):
     case = CaseSpec.from_id(get_case_id(wildcards))
     settings = ShakeSettings.from_config(stage_config(config, "case"))
     return cluster_resources.case_runtime_min(settings, case, attempt)
+
+
+# The DEM's cases of one frequency, acceleration and replicate share a job (simulate_dem_cases):
+# its start-up costs more than a short DEM case. With LIGGGHTS its pattern matches nothing.
+DEM_BATCH_FILLS = dem_batch_fills(config)
+DEM_BATCH_FREQ = dem_batch_constraint(config)
+
+
+def get_dem_batch_case_ids(wildcards):
+    """The case ids of a simulate_dem_cases job, one per grid fill."""
+    return dem_batch_case_ids(config, wildcards.freq, wildcards.accel, wildcards.replicate)
+
+
+def get_dem_batch_packings_by_case(wildcards):
+    """Each case's packings of a simulate_dem_cases job (a list per case)."""
+    return [[f"results/packings/{packing_id}.json"
+             for packing_id in case_packing_ids(config, CaseSpec.from_id(case_id))]
+            for case_id in get_dem_batch_case_ids(wildcards)]
+
+
+def get_dem_batch_packings(wildcards):
+    """Every packing a simulate_dem_cases job shakes."""
+    return [path for paths in get_dem_batch_packings_by_case(wildcards) for path in paths]
+
+
+def get_dem_batch_workdirs(wildcards):
+    return [f"results/work/cases/{case_id}" for case_id in get_dem_batch_case_ids(wildcards)]
+
+
+def get_dem_batch_movies(wildcards):
+    """Each case's movie settings ({} unless in inspection.movie_cases)."""
+    return [get_case_movie({"freq": wildcards.freq, "accel": wildcards.accel, "fill": fill,
+                            "replicate": wildcards.replicate}) for fill in DEM_BATCH_FILLS]
+
+
+def get_dem_batch_runtime_min(wildcards, attempt):
+    """The time limit of a simulate_dem_cases job, minutes: its cases' limits summed."""
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    return sum(cluster_resources.case_runtime_min(settings, CaseSpec.from_id(case_id), attempt)
+               for case_id in get_dem_batch_case_ids(wildcards))
+
+
+def get_dem_batch_priority(wildcards):
+    """Planned time steps of a simulate_dem_cases job's pilots, in millions: the costliest first."""
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    return sum(fidelity_study.planned_steps(settings, CaseSpec.from_id(case_id))
+               for case_id in get_dem_batch_case_ids(wildcards)) / 1e6
 
 
 def get_packing_config():

@@ -22,6 +22,7 @@ rule optimise_environments:
         "logs/optimise_environments.log",
     benchmark:
         "results/benchmarks/optimise_environments.tsv"
+    threads: 2  # the bootstrap's draws in two processes: the stage the campaign's end waits for
     script:
         "../scripts/optimise_environments.py"
 
