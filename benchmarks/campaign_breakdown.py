@@ -6,25 +6,59 @@ reached count of the 1 g cases; the cases whose pilot failed a steady-state chec
 (``not_steady``/``not_stationary``), the CPU of their runs after the pilot and how many ended
 without such a flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
 and |z_paired|, and the paired agreement by acceleration among the cases both solvers passed.
+With ``--against OTHER_RESULTS_DIR`` (the same config run by other code): for the cases both
+have, whether their records agree apart from timing (C_eq, its SEM, cells and cycles, flags),
+and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases.
 
-Run: .venv/bin/python benchmarks/campaign_breakdown.py RESULTS_DIR
+Run: .venv/bin/python benchmarks/campaign_breakdown.py RESULTS_DIR [--against OTHER_RESULTS_DIR]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
-import sys
 from pathlib import Path
 
 import pandas as pd
 from _record import append
 
 UNSTEADY = {"not_steady", "not_stationary"}
+SAME_KEYS = ("ceq_cell_ns_m", "ceq_cell_sem_ns_m", "status", "flags")
+"""What two records of one case must share to count as the same measurement (besides cells and cycles)."""
+
+
+def load_records(results: Path) -> list[dict]:
+    """Every case record of a results folder, by case id order."""
+    return [json.loads(p.read_text()) for p in sorted((results / "cases").glob("*.json"))]
+
+
+def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list[str]:
+    """Lines comparing the engine CPU of the cases both campaigns have, by frequency."""
+    theirs = {r["case_id"]: r for r in others}
+    pairs = [(r, theirs[r["case_id"]]) for r in records if r["case_id"] in theirs]
+    same = sum(all(a.get(k) == b.get(k) for k in SAME_KEYS)
+               and a["target"]["cells"] == b["target"]["cells"]
+               and a["target"]["measured_cycles"] == b["target"]["measured_cycles"] for a, b in pairs)
+    header = (f"against {other_dir}: {len(pairs)} cases in both, {same} of them the same measurement "
+              "(C_eq, SEM, status, flags, cells, cycles)")
+    lines = [header, "",
+             "| frequency Hz | cases | CPU s here | CPU s there | here / there |", "|---|---|---|---|---|"]
+    frame = pd.DataFrame([{"freq": a["freq_hz"], "here": a["target"]["cpu_time_s"],
+                           "there": b["target"]["cpu_time_s"]} for a, b in pairs])
+    for freq, part in [*frame.groupby("freq"), ("all", frame)]:
+        label = freq if freq == "all" else f"{freq:g}"
+        lines.append(f"| {label} | {len(part)} | {part['here'].sum():.0f} | {part['there'].sum():.0f} | "
+                     f"{part['here'].sum() / part['there'].sum():.2f} |")
+    return lines
 
 
 def main() -> None:
-    results = Path(sys.argv[1])
-    records = [json.loads(p.read_text()) for p in sorted((results / "cases").glob("*.json"))]
+    parser = argparse.ArgumentParser()
+    parser.add_argument("results", type=Path)
+    parser.add_argument("--against", type=Path, metavar="OTHER_RESULTS_DIR")
+    args = parser.parse_args()
+    results = args.results
+    records = load_records(results)
     ok = [r for r in records if r["status"] == "ok"]
     reached = [r for r in ok if (r.get("target") or {}).get("reached")]
     total_cpu = sum(r["target"]["cpu_time_s"] for r in records)
@@ -47,7 +81,11 @@ def main() -> None:
         lines.append(f"grid check: median |z_combined| {grid['z_combined'].abs().median():.2f}, "
                      f"median |z_paired| (both ok) {both['z_paired'].abs().median():.2f}; paired "
                      f"agreement of the cases both solvers passed: {by_g}")
-    append("Campaign breakdown", f"python benchmarks/campaign_breakdown.py {results}", lines)
+    command = f"python benchmarks/campaign_breakdown.py {results}"
+    if args.against:
+        lines += ["", *paired_cpu(records, load_records(args.against), args.against)]
+        command += f" --against {args.against}"
+    append("Campaign breakdown", command, lines)
 
 
 if __name__ == "__main__":
