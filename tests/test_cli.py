@@ -57,7 +57,10 @@ def test_pilot_only_runs_the_configured_cells_and_cycles_once(tmp_path, capsys):
                      max_measured_cycles=16)
     record = _case(tmp_path, config, "--pilot-only")
     assert not record.get("target")
-    assert record["n_cycles"] == 8
+    # the configured 5 transient + 8 measured cycles, run once; the cycles averaged are those
+    # after the transient MSER detects (at least the configured 5)
+    assert record["fidelity"]["measured_cycles"] == 8
+    assert record["n_cycles"] + record["detected_transient_cycles"] == 5 + 8
     assert len(record["cells"]) == 2
     assert "target_not_reached" not in record["flags"]
     assert "target " not in capsys.readouterr().out
