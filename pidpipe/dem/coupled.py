@@ -22,7 +22,7 @@ W (cos(omega t) - 1) and are likewise at rest at z = 0 at t = 0).
 Velocity Verlet for both, in LIGGGHTS' order: half kick and drift of spheres and host, the
 forces at the new positions with the walls at x_{n+1} and moving with the host's half-step
 velocity u_{n+1/2} (the spheres' velocities at that point are half-step values too, and it is
-exactly the displacement the walls made over the step, so the kernel's ``lag`` term is zero),
+exactly the displacement the walls made over the step, as in the prescribed loop),
 then the second half kick. The host's damping makes its second half kick implicit in u_{n+1};
 it is linear and solved in closed form.
 
@@ -89,7 +89,7 @@ def set_up_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall
     _pack(x, v, w, f, t, body)
     for b in range(x.shape[1]):
         out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
-                      vw, 0.0, False)
+                      vw, False)
         wall_fz[b] = out[0]
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
@@ -159,7 +159,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             wall_work = 0.0
             for b in range(n_batch):
                 out = _forces_into(body[b], hist[b], p, friction, rotation, normals, offsets,
-                                   x_new, u_half, 0.0, True, pairs, work_rows, near[b],
+                                   x_new, u_half, True, pairs, work_rows, near[b],
                                    near_n[b], anchor[b])
                 fz = out[0]
                 wall_work += (fz_prev[b] + fz) * (0.5 * dx)

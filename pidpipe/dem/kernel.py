@@ -74,16 +74,14 @@ the state and history with them without its test for negative indices (1.03-1.09
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag, p, law, friction,
-             rotation, update, sx, sy, sz, dprev, tpx, tpy, tpz, s2prev):
+def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, p, law, friction, rotation, update, sx, sy, sz, dprev, tpx, tpy, tpz, s2prev):
     """One contact, scalars in and out, inlined into the loop by Numba (``inline="always"``:
     that needs at most 30 arguments, beyond which Python passes them as one tuple; inlined
     before LLVM optimises, it runs 1.05-1.18x faster than LLVM's own later inlining).
 
     Inputs: the overlap ``dl`` (>= 0) with its square and fourth roots, the unit normal (ex, ey,
     ez) towards sphere i, the relative velocity vr = v_i - v_partner, the sum w of the angular
-    velocities, whether the partner is a wall (its normal's z component ``nz``, and lag = v_w -
-    u_w), the parameter vector ``p`` and the offset ``law`` of the contact's law in it (PP or
+    velocities, the parameter vector ``p`` and the offset ``law`` of the contact's law in it (PP or
     PW), and the contact's history: shear s, the last step's normal damping force, -F_t (tp)
     and k_t |s|^2 (s2prev).
 
@@ -114,10 +112,7 @@ def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag,
     damp = gn * vn
     fn = sq * a_n * dl - damp
     e0 = dprev + damp
-    if is_wall:
-        e0 = e0 * vn + e0 * (lag * nz)
-    else:
-        e0 = e0 * vn
+    e0 = e0 * vn
     fx, fy, fz = ex * fn, ey * fn, ez * fn
     if not friction:
         return (fx, fy, fz, 0.0, 0.0, 0.0, e0, 0.0, 0.0, 0.0,
@@ -152,9 +147,6 @@ def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag,
     bx, by, bz = tpx + t3x, tpy + t3y, tpz + t3z
     e1 = bx * vtx + by * vty + bz * vtz
     e3 = (vtx * vtx + vty * vty + vtz * vtz) * gamma_t
-    if is_wall:
-        e1 += bz * lag
-        e3 += (vtz * gamma_t) * lag
     e1 = e1 * dt - stored2 + s2prev
     e2 = e1 if sliding else 0.0
     tqx = tqy = tqz = 0.0
@@ -167,7 +159,7 @@ def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, is_wall, nz, lag,
 
 
 @njit(cache=True, error_model="numpy")
-def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, update):
+def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, update):
     """All forces and torques of one cell (gravity included), written into ``body``.
 
     ``body`` (n, N_BODY) and ``hist`` (n, n + 8, N_HIST) are the cell's packed arrays. Returns
@@ -177,7 +169,7 @@ def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, up
     """
     pairs, work = _scratch(body.shape[0])
     near, near_n, anchor = _near_scratch(1, body.shape[0])
-    return _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, update,
+    return _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, update,
                         pairs, work, near[0], near_n[0], anchor[0])
 
 
@@ -273,7 +265,7 @@ def _build_near(body, hist, radius, normals, offsets, zw, near, near_n, anchor):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, lag, update, pairs,
+def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, update, pairs,
                  work, near, near_n, anchor):
     """:func:`_forces` with scratch arrays from :func:`_scratch` (reused step after step) and
     the cell's near lists from :func:`_near_scratch` (kept from step to step, rebuilt when
@@ -350,7 +342,7 @@ def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, la
                      body[i, BV] - body[j, BV], body[i, BV + 1] - body[j, BV + 1],
                      body[i, BV + 2] - body[j, BV + 2], body[i, BW] + body[j, BW],
                      body[i, BW + 1] + body[j, BW + 1], body[i, BW + 2] + body[j, BW + 2],
-                     False, 0.0, 0.0, p, PP, friction, rotation, update,
+                     p, PP, friction, rotation, update,
                      hist[i, j, HS], hist[i, j, HS + 1], hist[i, j, HS + 2],
                      hist[i, j, HD], hist[i, j, HT], hist[i, j, HT + 1], hist[i, j, HT + 2],
                      hist[i, j, HS2])
@@ -380,8 +372,8 @@ def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, la
         dl = work[W_DL, c]
         hist[i, col, HDELTA] = dl
         h = _contact(dl, work[W_SQ, c], work[W_Q, c], nx, ny, nz, body[i, BV], body[i, BV + 1],
-                     body[i, BV + 2] - vw, body[i, BW], body[i, BW + 1], body[i, BW + 2], True,
-                     nz, lag, p, PW, friction, rotation, update,
+                     body[i, BV + 2] - vw, body[i, BW], body[i, BW + 1], body[i, BW + 2],
+                     p, PW, friction, rotation, update,
                      hist[i, col, HS], hist[i, col, HS + 1], hist[i, col, HS + 2],
                      hist[i, col, HD], hist[i, col, HT], hist[i, col, HT + 1],
                      hist[i, col, HT + 2], hist[i, col, HS2])
@@ -536,7 +528,7 @@ def set_up(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, 
         zw = amplitude[b] * _viblin_unit_z(step0, omega, p[DT])
         vw = amplitude[b] * (-omega * math.sin(phase))
         out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets, zw,
-                      vw, 0.0, False)
+                      vw, False)
         wall_fz[b] = out[0]
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
@@ -586,7 +578,6 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
     z_unit = np.empty(steps_per_cycle)
     v_unit = np.empty(steps_per_cycle)
-    u_unit = np.empty(steps_per_cycle)
     pairs, work_rows = _scratch(n)
     near, near_n, anchor = _near_scratch(n_batch, n)
     floor_k, lid_k = _floor_and_lid(normals)
@@ -602,10 +593,9 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
         for s in range(steps_per_cycle):
             step = first + s + 1
             # where LIGGGHTS' viblin puts the mesh: moved by v_w(t_n) dt in step n, so the
-            # contacts' wall velocity is the wall's own move over the step (u = v)
+            # contacts' wall velocity is also the wall's own move over the step
             z_unit[s] = _viblin_unit_z(step, omega, dt)
             v_unit[s] = -omega * math.sin(omega * (step * dt))
-            u_unit[s] = v_unit[s]
         for b in range(n_batch):
             cell, history = body[b], hist[b]
             near_b, near_nb, anchor_b = near[b], near_n[b], anchor[b]
@@ -623,12 +613,11 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                 _kick_drift(cell, half_over_m, half_over_i, dt, rotation)
                 zw = amp * z_unit[s]
                 vw = amp * v_unit[s]
-                uw = amp * u_unit[s]
                 out = _forces_into(cell, history, p, friction, rotation, normals, offsets, zw,
-                                   vw, vw - uw, True, pairs, work_rows, near_b, near_nb,
+                                   vw, True, pairs, work_rows, near_b, near_nb,
                                    anchor_b)
                 fz = out[0]
-                work = (fz_prev + fz) * (uw * (0.5 * dt))
+                work = (fz_prev + fz) * (vw * (0.5 * dt))
                 fz_prev = fz
                 work_sum += work
                 gross_sum += abs(work)
