@@ -5,7 +5,8 @@ From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU
 reached count of the 1 g cases; the cases whose pilot failed a steady-state check
 (``not_steady``/``not_stationary``), the CPU of their runs after the pilot and how many ended
 without such a flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
-and |z_paired|, and the paired agreement by acceleration among the cases both solvers passed.
+and |z_paired|, the paired agreement by acceleration among the cases both solvers passed, the
+median |paired_rel_diff| by acceleration and each 1 g case's paired difference.
 With ``--against OTHER_RESULTS_DIR`` (the same config run by other code): for the cases both
 have, whether their records agree apart from timing (C_eq, its SEM, cells and cycles, flags),
 and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases.
@@ -81,6 +82,11 @@ def main() -> None:
         lines.append(f"grid check: median |z_combined| {grid['z_combined'].abs().median():.2f}, "
                      f"median |z_paired| (both ok) {both['z_paired'].abs().median():.2f}; paired "
                      f"agreement of the cases both solvers passed: {by_g}")
+        size = "; ".join(f"{g:g} g: {part['paired_rel_diff'].abs().median():.2%}"
+                         for g, part in both.groupby("accel_g"))
+        one_g = ", ".join(f"{row.case_id} {row.paired_rel_diff:+.3%} (z_paired {row.z_paired:+.1f})"
+                          for row in both[both["accel_g"] == 1].itertuples())
+        lines.append(f"median |paired_rel_diff| (both ok): {size}; at 1 g: {one_g}")
     command = f"python benchmarks/campaign_breakdown.py {results}"
     if args.against:
         lines += ["", *paired_cpu(records, load_records(args.against), args.against)]
