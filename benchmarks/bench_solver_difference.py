@@ -156,14 +156,18 @@ def main() -> None:
                     z = f"{paired['z_paired']:+.1f}"
                 lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | {name} | {fraction:g} | "
                              f"{text} | {diff} | {z} | {close} of {values.size} | {cpu[name]:.0f} |")
-            exact = "dem_exact" if "dem_exact" in ceq else None
-            viblin = "dem_viblin" if "dem_viblin" in ceq else ("dem" if "dem" in ceq else None)
-            if exact and viblin:
+            for suffix, fraction in (("", 0.2), ("_dt0.1", 0.1)):
+                exact = f"dem_exact{suffix}" if f"dem_exact{suffix}" in ceq else None
+                viblin = next((v for v in (f"dem_viblin{suffix}", f"dem{suffix}") if v in ceq), None)
+                if not (exact and viblin):
+                    continue
                 paired = paired_difference(
                     {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[exact])]},
                     {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[viblin])]})
-                steps = CellScene.of(ShakeSettings.from_config(load_config())).timestep(freq).steps_per_cycle
-                lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | {viblin} vs {exact} | 0.2 | "
+                config = load_config()
+                config["fidelity"]["timestep_rayleigh_fraction"] = fraction
+                steps = CellScene.of(ShakeSettings.from_config(config)).timestep(freq).steps_per_cycle
+                lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | {viblin} vs {exact} | {fraction:g} | "
                              f"pi / steps per cycle = {100 * math.pi / steps:.3f} % | "
                              f"{100 * paired['paired_rel_diff']:+.3f} +- "
                              f"{100 * paired['paired_rel_diff_sem']:.3f} % | "
