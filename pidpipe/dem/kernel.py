@@ -22,9 +22,11 @@ evaluation contributes exactly zero and is skipped; the pairs and planes that co
 reach are kept in near lists (:func:`_build_near`, a skin of NEAR_SKIN radii, rebuilt when a
 sphere or the walls have moved half of it), so that a step screens these few instead of every
 pair and plane, and lists exactly the same contacts. Each force evaluation first lists the
-contacts to evaluate and takes all their square roots in one tight loop, then evaluates them
-in the listed order (:func:`_forces_into`; 1.07-1.17x faster than one pass, to the last bit the
-same result, benchmarks/results.md).
+contacts to evaluate, then takes them LANES at a time: their square roots and the contact law
+in loops without dependences between contacts, which LLVM runs four contacts wide in the
+vector registers, then the histories and the sums of forces and energy terms in the listed
+order (:func:`_forces_into`; to the last bit the result of one pass contact by contact,
+benchmarks/results.md).
 
 Nothing here is called directly: :mod:`pidpipe.dem.compiled` builds the arrays and reports a
 missing or failing Numba with the fix.
@@ -286,13 +288,15 @@ def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, up
     the cell's near lists from :func:`_near_scratch` (kept from step to step, rebuilt when
     :func:`_near_stale`).
 
-    Three passes: the screen lists the contacts to evaluate (the near lists' pairs within
-    reach or in contact at the last evaluation, and walls likewise), in the order of the pairs
-    (i < j) and then of the walls (sphere by sphere, plane by plane); a tight loop takes the square roots of every
-    listed contact (distance, overlap^1/2, overlap^1/4), which the processor then overlaps
-    across contacts instead of waiting for each chain in turn; the contacts are evaluated and
-    their forces summed in the listed order, which is the order of the one-pass loop, so the
-    result is the same to the last bit.
+    The screen lists the contacts to evaluate (the near lists' pairs within reach or in
+    contact at the last evaluation, and walls likewise), in the order of the pairs (i < j) and
+    then of the walls (sphere by sphere, plane by plane). Then, LANES contacts at a time (pairs
+    and walls apart, as their laws differ): the square roots (distance, overlap^1/2,
+    overlap^1/4) and the unit normals into the lane rows, several contacts wide; the
+    velocities and histories gathered into them; the law of every contact in one loop,
+    several wide (:func:`_law_into`); the new histories stored and the forces and energy
+    terms summed in the listed order, which is the order of one pass contact by contact, so
+    the result is the same to the last bit.
     """
     n = body.shape[0]
     radius = p[RADIUS]
