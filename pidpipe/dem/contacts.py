@@ -98,6 +98,7 @@ class Workspace:
         self.vcols = np.zeros((3, n_batch, m))
         self.ocols = np.zeros((3, n_batch, m))
         self.wall_dist = np.zeros((N_WALLS, n_batch * n))
+        self.wall_term = np.zeros((N_WALLS, n_batch * n))
         self.terms_acc = np.zeros_like(self.terms)
         self.step_wall_work = np.zeros(n_batch)
         self.wall_work_acc = np.zeros(n_batch)
@@ -166,7 +167,14 @@ def compute_forces(scene: Scene, state: State, ws: Workspace, wall_z_m: np.ndarr
     np.sqrt(r_pp, out=r_pp)
     np.subtract(2.0 * radius, r_pp, out=delta[..., :n])
     np.divide(ws.pair_diff, r_pp, out=en[..., :n])
-    np.matmul(ws.normals, state.x.reshape(3, -1), out=ws.wall_dist)
+    # n . x as the kernel sums it, n_x x + n_y y + n_z z from the left (a matrix product
+    # rounds differently, by an ulp of x, and a resting wall overlap of ~4e-8 m turns that
+    # into 4e-11 of the contact force; BLAS's order also varies with the build)
+    x_flat = state.x.reshape(3, -1)
+    np.multiply(ws.normals[:, 0, None], x_flat[0], out=ws.wall_dist)
+    for c in (1, 2):
+        np.multiply(ws.normals[:, c, None], x_flat[c], out=ws.wall_term)
+        ws.wall_dist += ws.wall_term
     dist = ws.wall_dist.reshape(N_WALLS, state.n_batch, n).transpose(1, 2, 0)
     np.multiply(wall_z_m[:, None, None], ws.normal_z, out=ws.wall_reach)
     ws.wall_reach += ws.r_minus_offset                            # R - c + n_z z_w

@@ -122,7 +122,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     """
     _pack(x, v, w, f, t, body)
     n_batch = x.shape[1]
-    pairs, work_rows = _scratch(x.shape[2])       # reused at every step, as in kernel.run
+    pairs, work_rows, lane = _scratch(x.shape[2])       # reused at every step, as in kernel.run
     near, near_n, anchor = _near_scratch(n_batch, x.shape[2])
     dt = p[DT]
     half_over_m = 0.5 * dt / p[MASS]
@@ -159,7 +159,7 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             wall_work = 0.0
             for b in range(n_batch):
                 out = _forces_into(body[b], hist[b], p, friction, rotation, normals, offsets,
-                                   x_new, u_half, True, pairs, work_rows, near[b],
+                                   x_new, u_half, True, pairs, work_rows, lane, near[b],
                                    near_n[b], anchor[b])
                 fz = out[0]
                 wall_work += (fz_prev[b] + fz) * (0.5 * dx)

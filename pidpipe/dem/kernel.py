@@ -22,9 +22,11 @@ evaluation contributes exactly zero and is skipped; the pairs and planes that co
 reach are kept in near lists (:func:`_build_near`, a skin of NEAR_SKIN radii, rebuilt when a
 sphere or the walls have moved half of it), so that a step screens these few instead of every
 pair and plane, and lists exactly the same contacts. Each force evaluation first lists the
-contacts to evaluate and takes all their square roots in one tight loop, then evaluates them
-in the listed order (:func:`_forces_into`; 1.07-1.17x faster than one pass, to the last bit the
-same result, benchmarks/results.md).
+contacts to evaluate, then takes them LANES at a time: their square roots and the contact law
+in loops without dependences between contacts, which LLVM runs four contacts wide in the
+vector registers, then the histories and the sums of forces and energy terms in the listed
+order (:func:`_forces_into`; to the last bit the result of one pass contact by contact,
+benchmarks/results.md).
 
 Nothing here is called directly: :mod:`pidpipe.dem.compiled` builds the arrays and reports a
 missing or failing Numba with the fix.
@@ -60,6 +62,18 @@ N_ENERGY_ROWS = 8
 # rows of the contact scratch of _forces_into: distance^2 and then 1 / distance (sphere pairs),
 # the overlap, its square and fourth root, the separation vector (sphere pairs)
 W_R, W_DL, W_SQ, W_Q, W_DX, W_DY, W_DZ, N_WORK = 0, 1, 2, 3, 4, 5, 6, 7
+LANES = 32
+"""Contacts evaluated together by :func:`_forces_into`: their law inputs and results are rows of
+LANES numbers in one flat array, whose row length is then a constant of the compiled code, so
+that the compiler sees that the rows do not overlap and evaluates the law several contacts wide
+(a 2-D scratch of rows leaves it unsure and one contact at a time)."""
+# rows of the lane array: the law's inputs (overlap, its square and fourth roots, the unit
+# normal, the relative velocity, the sum of the angular velocities, the history: shear,
+# damping force, -F_t, k_t |s|^2), then its results in the order of _contact's tuple (force,
+# torque, energy terms e0..e3, shear, damping force, -F_t, k_t |s|^2, sliding)
+L_DL, L_SQ, L_Q, L_EX, L_VR, L_W, L_S, L_D, L_TP, L_S2 = 0, 1, 2, 3, 6, 9, 12, 15, 16, 19
+R_F = 20
+R_T, R_E, R_S, R_D, R_TP, R_S2, R_SLIDE, N_LANE_ROWS = 23, 26, 30, 33, 34, 37, 38, 39
 # rows of the bed-motion output of run: sums over each window (the walls' work, J; the floor's
 # upward force on the spheres and theirs on the lid, N, summed over the samples; the samples),
 # then values at the window boundaries (K + K_rot + P, J; heights above the floor of the centre
@@ -134,7 +148,8 @@ def _contact(dl, sq, q, ex, ey, ez, vrx, vry, vrz, wx, wy, wz, p, law, friction,
     cap = abs(fn) * mu
     sliding = spring > cap
     if sliding:                                       # the Coulomb cap; 1 when sticking
-        ratio = min(cap / (spring + 1e-300), 1.0)
+        ratio = cap / (spring + 1e-300)
+        ratio = ratio if ratio < 1.0 else 1.0           # min(), which Numba does not vectorise
         sx *= ratio
         sy *= ratio
         sz *= ratio
@@ -167,18 +182,20 @@ def _forces(body, hist, p, friction, rotation, normals, offsets, zw, vw, update)
     sphere pairs and then of the wall contacts. (:func:`_forces_into` with its scratch arrays
     allocated for this call; the time loop keeps its own.)
     """
-    pairs, work = _scratch(body.shape[0])
+    pairs, work, lane = _scratch(body.shape[0])
     near, near_n, anchor = _near_scratch(1, body.shape[0])
     return _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, update,
-                        pairs, work, near[0], near_n[0], anchor[0])
+                        pairs, work, lane, near[0], near_n[0], anchor[0])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _scratch(n):
     """The scratch arrays of :func:`_forces_into` for cells of ``n`` spheres: the partners of
-    every possible contact (2, n_max) and its precomputed numbers (N_WORK, n_max)."""
+    every possible contact (2, n_max), its precomputed numbers (N_WORK, n_max) and the lane
+    rows of the contact law (N_LANE_ROWS * LANES,)."""
     n_max = n * (n - 1) // 2 + n * N_WALLS
-    return np.empty((2, n_max), dtype=INDEX), np.empty((N_WORK, n_max))
+    return (np.empty((2, n_max), dtype=INDEX), np.empty((N_WORK, n_max)),
+            np.empty(N_LANE_ROWS * LANES))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -266,18 +283,20 @@ def _build_near(body, hist, radius, normals, offsets, zw, near, near_n, anchor):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, update, pairs,
-                 work, near, near_n, anchor):
+                 work, lane, near, near_n, anchor):
     """:func:`_forces` with scratch arrays from :func:`_scratch` (reused step after step) and
     the cell's near lists from :func:`_near_scratch` (kept from step to step, rebuilt when
     :func:`_near_stale`).
 
-    Three passes: the screen lists the contacts to evaluate (the near lists' pairs within
-    reach or in contact at the last evaluation, and walls likewise), in the order of the pairs
-    (i < j) and then of the walls (sphere by sphere, plane by plane); a tight loop takes the square roots of every
-    listed contact (distance, overlap^1/2, overlap^1/4), which the processor then overlaps
-    across contacts instead of waiting for each chain in turn; the contacts are evaluated and
-    their forces summed in the listed order, which is the order of the one-pass loop, so the
-    result is the same to the last bit.
+    The screen lists the contacts to evaluate (the near lists' pairs within reach or in
+    contact at the last evaluation, and walls likewise), in the order of the pairs (i < j) and
+    then of the walls (sphere by sphere, plane by plane). Then, LANES contacts at a time (pairs
+    and walls apart, as their laws differ): the square roots (distance, overlap^1/2,
+    overlap^1/4) and the unit normals into the lane rows, several contacts wide; the
+    velocities and histories gathered into them; the law of every contact in one loop,
+    several wide (:func:`_law_into`); the new histories stored and the forces and energy
+    terms summed in the listed order, which is the order of one pass contact by contact, so
+    the result is the same to the last bit.
     """
     n = body.shape[0]
     radius = p[RADIUS]
@@ -320,93 +339,150 @@ def _forces_into(body, hist, p, friction, rotation, normals, offsets, zw, vw, up
         pairs[1, count] = k
         work[W_DL, count] = max(dl, 0.0)
         count += 1
-    # the square roots of every listed contact
     diameter = 2.0 * radius
-    for c in range(n_pairs):
-        r = math.sqrt(work[W_R, c])
-        work[W_DL, c] = max(diameter - r, 0.0)
-        work[W_R, c] = 1.0 / r
-    for c in range(count):
-        sq = math.sqrt(work[W_DL, c])
-        work[W_SQ, c] = sq
-        work[W_Q, c] = math.sqrt(sq)
-    # evaluate and sum
+    # evaluate and sum, LANES contacts at a time: gather their inputs into the lane rows,
+    # evaluate the law for all of them in one loop without dependences between contacts
+    # (which the compiler runs several contacts wide in the vector registers), then store
+    # the histories and sum the forces and energy terms in the listed order
     p0 = p1 = p2 = p3 = 0.0
-    for c in range(n_pairs):
-        i, j = pairs[0, c], pairs[1, c]
-        dl = work[W_DL, c]
-        hist[i, j, HDELTA] = dl
-        inv_r = work[W_R, c]
-        h = _contact(dl, work[W_SQ, c], work[W_Q, c], work[W_DX, c] * inv_r,
-                     work[W_DY, c] * inv_r, work[W_DZ, c] * inv_r,
-                     body[i, BV] - body[j, BV], body[i, BV + 1] - body[j, BV + 1],
-                     body[i, BV + 2] - body[j, BV + 2], body[i, BW] + body[j, BW],
-                     body[i, BW + 1] + body[j, BW + 1], body[i, BW + 2] + body[j, BW + 2],
-                     p, PP, friction, rotation, update,
-                     hist[i, j, HS], hist[i, j, HS + 1], hist[i, j, HS + 2],
-                     hist[i, j, HD], hist[i, j, HT], hist[i, j, HT + 1], hist[i, j, HT + 2],
-                     hist[i, j, HS2])
-        _keep(hist, i, j, h)
-        body[i, BF] += h[0]
-        body[i, BF + 1] += h[1]
-        body[i, BF + 2] += h[2]
-        body[j, BF] -= h[0]
-        body[j, BF + 1] -= h[1]
-        body[j, BF + 2] -= h[2]
-        if torques:
-            body[i, BT] += h[3]
-            body[i, BT + 1] += h[4]
-            body[i, BT + 2] += h[5]
-            body[j, BT] += h[3]
-            body[j, BT + 1] += h[4]
-            body[j, BT + 2] += h[5]
-        p0 += h[6]
-        p1 += h[7]
-        p2 += h[8]
-        p3 += h[9]
+    for first in range(0, n_pairs, LANES):
+        m = min(LANES, n_pairs - first)
+        for l in range(m):                            # the square roots, several wide
+            c = first + l
+            r = math.sqrt(work[W_R, c])
+            dl = diameter - r
+            dl = dl if dl > 0.0 else 0.0              # max(), which Numba does not vectorise
+            inv_r = 1.0 / r
+            sq = math.sqrt(dl)
+            lane[L_DL * LANES + l] = dl
+            lane[L_SQ * LANES + l] = sq
+            lane[L_Q * LANES + l] = math.sqrt(sq)
+            lane[L_EX * LANES + l] = work[W_DX, c] * inv_r
+            lane[(L_EX + 1) * LANES + l] = work[W_DY, c] * inv_r
+            lane[(L_EX + 2) * LANES + l] = work[W_DZ, c] * inv_r
+        for l in range(m):
+            c = first + l
+            i, j = pairs[0, c], pairs[1, c]
+            hist[i, j, HDELTA] = lane[L_DL * LANES + l]
+            for k in range(3):
+                lane[(L_VR + k) * LANES + l] = body[i, BV + k] - body[j, BV + k]
+                lane[(L_W + k) * LANES + l] = body[i, BW + k] + body[j, BW + k]
+            _history_into(hist, i, j, lane, l)
+        for l in range(m):
+            _law_into(lane, l, p, PP, friction, rotation, update)
+        for l in range(m):
+            c = first + l
+            i, j = pairs[0, c], pairs[1, c]
+            _keep(hist, i, j, lane, l)
+            fx, fy, fz = lane[R_F * LANES + l], lane[(R_F + 1) * LANES + l], lane[(R_F + 2) * LANES + l]
+            body[i, BF] += fx
+            body[i, BF + 1] += fy
+            body[i, BF + 2] += fz
+            body[j, BF] -= fx
+            body[j, BF + 1] -= fy
+            body[j, BF + 2] -= fz
+            if torques:
+                for k in range(3):
+                    body[i, BT + k] += lane[(R_T + k) * LANES + l]
+                    body[j, BT + k] += lane[(R_T + k) * LANES + l]
+            p0 += lane[R_E * LANES + l]
+            p1 += lane[(R_E + 1) * LANES + l]
+            p2 += lane[(R_E + 2) * LANES + l]
+            p3 += lane[(R_E + 3) * LANES + l]
     wall_fz = w0 = w1 = w2 = w3 = 0.0
-    for c in range(n_pairs, count):
-        i, k = pairs[0, c], pairs[1, c]
-        col = n + k
-        nx, ny, nz = normals[k, 0], normals[k, 1], normals[k, 2]
-        dl = work[W_DL, c]
-        hist[i, col, HDELTA] = dl
-        h = _contact(dl, work[W_SQ, c], work[W_Q, c], nx, ny, nz, body[i, BV], body[i, BV + 1],
-                     body[i, BV + 2] - vw, body[i, BW], body[i, BW + 1], body[i, BW + 2],
-                     p, PW, friction, rotation, update,
-                     hist[i, col, HS], hist[i, col, HS + 1], hist[i, col, HS + 2],
-                     hist[i, col, HD], hist[i, col, HT], hist[i, col, HT + 1],
-                     hist[i, col, HT + 2], hist[i, col, HS2])
-        _keep(hist, i, col, h)
-        body[i, BF] += h[0]
-        body[i, BF + 1] += h[1]
-        body[i, BF + 2] += h[2]
-        if torques:
-            body[i, BT] += h[3]
-            body[i, BT + 1] += h[4]
-            body[i, BT + 2] += h[5]
-        wall_fz += h[2]
-        w0 += h[6]
-        w1 += h[7]
-        w2 += h[8]
-        w3 += h[9]
+    for first in range(n_pairs, count, LANES):
+        m = min(LANES, count - first)
+        for l in range(m):
+            dl = work[W_DL, first + l]
+            sq = math.sqrt(dl)
+            lane[L_DL * LANES + l] = dl
+            lane[L_SQ * LANES + l] = sq
+            lane[L_Q * LANES + l] = math.sqrt(sq)
+        for l in range(m):
+            c = first + l
+            i, k = pairs[0, c], pairs[1, c]
+            col = n + k
+            hist[i, col, HDELTA] = lane[L_DL * LANES + l]
+            for d in range(3):
+                lane[(L_EX + d) * LANES + l] = normals[k, d]
+                lane[(L_VR + d) * LANES + l] = body[i, BV + d]
+                lane[(L_W + d) * LANES + l] = body[i, BW + d]
+            lane[(L_VR + 2) * LANES + l] = body[i, BV + 2] - vw
+            _history_into(hist, i, col, lane, l)
+        for l in range(m):
+            _law_into(lane, l, p, PW, friction, rotation, update)
+        for l in range(m):
+            c = first + l
+            i, k = pairs[0, c], pairs[1, c]
+            _keep(hist, i, n + k, lane, l)
+            body[i, BF] += lane[R_F * LANES + l]
+            body[i, BF + 1] += lane[(R_F + 1) * LANES + l]
+            body[i, BF + 2] += lane[(R_F + 2) * LANES + l]
+            if torques:
+                for d in range(3):
+                    body[i, BT + d] += lane[(R_T + d) * LANES + l]
+            wall_fz += lane[(R_F + 2) * LANES + l]
+            w0 += lane[R_E * LANES + l]
+            w1 += lane[(R_E + 1) * LANES + l]
+            w2 += lane[(R_E + 2) * LANES + l]
+            w3 += lane[(R_E + 3) * LANES + l]
     for i in range(n):
         body[i, BF + 2] -= p[WEIGHT]
     return wall_fz, p0, p1, p2, p3, w0, w1, w2, w3
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _keep(hist, i, col, h):
-    """Store a contact's new history, the tail of :func:`_contact`'s tuple."""
-    hist[i, col, HS] = h[10]
-    hist[i, col, HS + 1] = h[11]
-    hist[i, col, HS + 2] = h[12]
-    hist[i, col, HT] = h[14]
-    hist[i, col, HT + 1] = h[15]
-    hist[i, col, HT + 2] = h[16]
-    hist[i, col, HD] = h[13]
-    hist[i, col, HS2] = h[17]
-    hist[i, col, HSLIDE] = 1.0 if h[18] else 0.0
+def _history_into(hist, i, col, lane, l):
+    """Copy contact (i, col)'s history (shear, damping force, -F_t, k_t |s|^2) into lane l."""
+    for k in range(3):
+        lane[(L_S + k) * LANES + l] = hist[i, col, HS + k]
+        lane[(L_TP + k) * LANES + l] = hist[i, col, HT + k]
+    lane[L_D * LANES + l] = hist[i, col, HD]
+    lane[L_S2 * LANES + l] = hist[i, col, HS2]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _law_into(lane, l, p, law, friction, rotation, update):
+    """:func:`_contact` of the contact in lane l, its results into the lane's rows R_*."""
+    h = _contact(lane[L_DL * LANES + l], lane[L_SQ * LANES + l], lane[L_Q * LANES + l],
+                 lane[L_EX * LANES + l], lane[(L_EX + 1) * LANES + l],
+                 lane[(L_EX + 2) * LANES + l], lane[L_VR * LANES + l],
+                 lane[(L_VR + 1) * LANES + l], lane[(L_VR + 2) * LANES + l],
+                 lane[L_W * LANES + l], lane[(L_W + 1) * LANES + l], lane[(L_W + 2) * LANES + l],
+                 p, law, friction, rotation, update,
+                 lane[L_S * LANES + l], lane[(L_S + 1) * LANES + l], lane[(L_S + 2) * LANES + l],
+                 lane[L_D * LANES + l], lane[L_TP * LANES + l], lane[(L_TP + 1) * LANES + l],
+                 lane[(L_TP + 2) * LANES + l], lane[L_S2 * LANES + l])
+    lane[(R_F + 0) * LANES + l] = h[0]
+    lane[(R_F + 1) * LANES + l] = h[1]
+    lane[(R_F + 2) * LANES + l] = h[2]
+    lane[(R_F + 3) * LANES + l] = h[3]
+    lane[(R_F + 4) * LANES + l] = h[4]
+    lane[(R_F + 5) * LANES + l] = h[5]
+    lane[(R_F + 6) * LANES + l] = h[6]
+    lane[(R_F + 7) * LANES + l] = h[7]
+    lane[(R_F + 8) * LANES + l] = h[8]
+    lane[(R_F + 9) * LANES + l] = h[9]
+    lane[(R_F + 10) * LANES + l] = h[10]
+    lane[(R_F + 11) * LANES + l] = h[11]
+    lane[(R_F + 12) * LANES + l] = h[12]
+    lane[(R_F + 13) * LANES + l] = h[13]
+    lane[(R_F + 14) * LANES + l] = h[14]
+    lane[(R_F + 15) * LANES + l] = h[15]
+    lane[(R_F + 16) * LANES + l] = h[16]
+    lane[(R_F + 17) * LANES + l] = h[17]
+    lane[(R_F + 18) * LANES + l] = 1.0 if h[18] else 0.0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _keep(hist, i, col, lane, l):
+    """Store contact (i, col)'s new history, the tail of :func:`_contact`'s tuple, from lane l."""
+    for k in range(3):
+        hist[i, col, HS + k] = lane[(R_S + k) * LANES + l]
+        hist[i, col, HT + k] = lane[(R_TP + k) * LANES + l]
+    hist[i, col, HD] = lane[R_D * LANES + l]
+    hist[i, col, HS2] = lane[R_S2 * LANES + l]
+    hist[i, col, HSLIDE] = lane[R_SLIDE * LANES + l]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -578,7 +654,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
     z_unit = np.empty(steps_per_cycle)
     v_unit = np.empty(steps_per_cycle)
-    pairs, work_rows = _scratch(n)
+    pairs, work_rows, lane = _scratch(n)
     near, near_n, anchor = _near_scratch(n_batch, n)
     floor_k, lid_k = _floor_and_lid(normals)
     floor_z = -offsets[floor_k]
@@ -614,7 +690,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                 zw = amp * z_unit[s]
                 vw = amp * v_unit[s]
                 out = _forces_into(cell, history, p, friction, rotation, normals, offsets, zw,
-                                   vw, True, pairs, work_rows, near_b, near_nb,
+                                   vw, True, pairs, work_rows, lane, near_b, near_nb,
                                    anchor_b)
                 fz = out[0]
                 work = (fz_prev + fz) * (vw * (0.5 * dt))
