@@ -13,7 +13,7 @@ import pytest
 from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
 from pidpipe.config.settings import PourSettings, ShakeSettings
-from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case
+from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case, start_dem_case
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.adaptive import run_to_target
@@ -110,6 +110,31 @@ def test_adaptive_cycles_extend_a_dem_case_until_the_target(packings):
     assert record["fidelity"]["measured_cycles"] == target["measured_cycles"] == runs[-1]["measured_cycles"]
     assert target["reached"] or "target_not_reached" in record["flags"]
     assert target["cpu_time_s"] > 0
+
+
+def _untimed(record: dict) -> str:
+    """A record as JSON without what only timing sets (engine, wall time)."""
+    return json.dumps({key: value for key, value in record.items()
+                       if key not in ("engine", "wall_time_s")}, sort_keys=True)
+
+
+def test_a_continued_dem_case_is_the_longer_run_from_the_pour_to_the_last_bit(packings):
+    """Two cells shaken for 10 + 8 cycles and continued to 10 + 20 give the record of one run
+    of 10 + 20 cycles: every series, summary, steady-state verdict and motion profile equal to
+    the last bit; only the timing differs, the continuation's own."""
+    config = short_config(transient=10, measured=8)
+    run = start_dem_case(ShakeSettings.from_config(config), CASE, packings)
+    assert run.record["fidelity"]["measured_cycles"] == 8
+    continued = run.extend(20)
+    longer = run_dem_case(ShakeSettings.from_config(short_config(transient=10, measured=20)),
+                          CASE, packings)
+    assert len(continued["cycles"]["dissipated_j"]) == 30
+    assert _untimed(continued) == _untimed(longer)
+    assert continued["engine"]["continued_from_cycles"] == 18
+    assert continued["engine"]["steps"] == 12 * longer["fidelity"]["steps_per_cycle"]
+    assert longer["engine"]["continued_from_cycles"] == 0
+    with pytest.raises(ValueError, match="goes on to more"):
+        run.extend(20)
 
 
 def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_case():
