@@ -264,7 +264,18 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
     return run_to_target(settings, case, packings, workdir, run=shake, new_packings=new_packings,
                          cost_model=load_cost_model(settings.engine),
                          steps_per_cycle=plan.steps_per_cycle,
-                         transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
+                         transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz),
+                         start=case_starter(settings))
+
+
+def case_starter(settings: ShakeSettings):
+    """For an engine whose runs can go on from where they ended, the function that starts one
+    (``dem``: :func:`pidpipe.dem.case.start_dem_case`); None for ``liggghts``, whose longer
+    runs replay the shorter ones from the pour."""
+    if settings.engine == "dem":
+        from pidpipe.dem.case import start_dem_case
+        return start_dem_case
+    return None
 
 
 def case_runner(settings: ShakeSettings):
