@@ -12,6 +12,11 @@ ledgers: the balance, its mismatch with the term-by-term sum, and the dissipatio
 contact type. With ``settings.motion`` the kernel samples the bed's motion within the cycle
 as the LIGGGHTS deck does, and the record's ``regime`` and ``motion`` come from it by the same
 code (:func:`pidpipe.measurement.inspection.motion_record`).
+
+A case's run can go on (:func:`start_dem_case`, :class:`DemCaseRun`): its end state stays in
+memory, and :meth:`DemCaseRun.extend` takes it on to more measured cycles, giving the record of
+one run that long from the pour, to the last bit; the allocation's "more cycles" steps use it
+(:func:`pidpipe.measurement.adaptive.run_to_target`).
 """
 
 from __future__ import annotations
