@@ -85,8 +85,15 @@ def main() -> None:
         totals[label] = cpu
         lines.append(f"| {label} | {cpu:.1f} | {planned:.1f} | {reached} of {len(cases)} | "
                      f"{cpu_by_kind(cases)} |")
+    same_plan = [(mine, theirs) for mine, theirs in zip(records["continued"], records["replayed"])
+                 if _plan(mine) == _plan(theirs)]
+    same = sum(mine["ceq_cell_ns_m"] == theirs["ceq_cell_ns_m"]
+               and mine["ceq_cell_sem_ns_m"] == theirs["ceq_cell_sem_ns_m"]
+               and mine["flags"] == theirs["flags"] for mine, theirs in same_plan)
     lines += ["", f"continued / replayed engine CPU: {totals['continued'] / totals['replayed']:.2f} "
-              f"({totals['replayed'] - totals['continued']:.1f} s saved)", "",
+              f"({totals['replayed'] - totals['continued']:.1f} s saved); {len(same_plan)} cases "
+              f"took the same steps both ways, {same} of them with the same C_eq, SEM and flags "
+              "to the last bit", "",
               "| case | continued: steps, CPU s, SEM % | replayed: steps, CPU s, SEM % |", "|---|---|---|"]
     for mine, theirs in zip(records["continued"], records["replayed"]):
         lines.append(f"| {mine['case_id']} | {_steps(mine)} | {_steps(theirs)} |")
@@ -94,6 +101,11 @@ def main() -> None:
     if args.cases:
         command += " --cases " + " ".join(args.cases)
     append("Continuing the DEM's runs for more cycles", command, lines)
+
+
+def _plan(record: dict) -> list:
+    """A case's steps: kind, cells added and cycles of each."""
+    return [(step["kind"], step["new_cells"], step["cycles"]) for step in record["target"]["steps"]]
 
 
 def _steps(record: dict) -> str:
