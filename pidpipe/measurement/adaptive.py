@@ -115,9 +115,11 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     -------
     dict
         The combined record; with a target, ``target`` = {relative_sem, reached, cells,
-        measured_cycles, not_chased (why no step followed the pilot, or None), runs (every run, or part of a run continued: index, kind, continued, from_measured_cycles,
-        seeds, measured cycles, used, cpu_time_s, planned_cpu_s, wall_time_s), steps (each planned step), cpu_time_s, planned_cpu_s,
-        wall_time_s}, and ``target_not_reached`` in ``flags`` when it was missed.
+        measured_cycles, not_chased (why no step followed the pilot, or None), runs (every
+        run, and every continuation of one: index, kind, continued, from_measured_cycles,
+        seeds, measured cycles, used, cpu_time_s, planned_cpu_s, wall_time_s), steps (each
+        planned step), cpu_time_s, planned_cpu_s, wall_time_s}, and ``target_not_reached``
+        in ``flags`` when it was missed.
     """
     groups = [list(pilot)]                       # packings of each current run, by run index
     records = [shake(groups[0], pilot_cycles, 0)]
