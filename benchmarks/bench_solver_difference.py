@@ -10,10 +10,16 @@ else poured) in every variant:
   edges between coplanar triangles (the untested hypothesis: a sphere creeping across such an
   edge loses its tangential history);
 - ``liggghts_dt0.1``: LIGGGHTS at dt = 0.1 t_R instead of 0.2 t_R;
-- ``dem``, ``dem_dt0.1``: the compiled DEM at 0.2 t_R (the grid check's) and at 0.1 t_R;
-- ``dem_viblin``, ``dem_viblin_dt0.1``: the NumPy reference DEM (the kernel's physics, bit for
-  bit) with its walls where LIGGGHTS' ``viblin`` puts the mesh,
-  :func:`pidpipe.dem.walls.viblin_wall_motion`, instead of at z_w(t_n).
+- ``dem``, ``dem_dt0.1``: the compiled DEM at 0.2 t_R (the grid check's) and at 0.1 t_R. Since
+  the wall fix its walls are where LIGGGHTS' ``viblin`` puts the mesh (before it, they were at
+  the exact z_w(t_n): the results.md entries of 13:22-13:34 UTC on 2026-12-01 are of those);
+- ``dem_exact``, ``dem_exact_dt0.1``: the NumPy reference DEM (the kernel's physics) with its
+  walls at the exact z_w(t_n) (``walls="exact"``), the DEM as it was before the fix;
+- ``dem_viblin``, ``dem_viblin_dt0.1``: the NumPy reference DEM with its walls where ``viblin``
+  puts the mesh, :func:`pidpipe.dem.walls.viblin_wall_motion` (the compiled DEM's walls).
+
+``dem_viblin vs dem_exact`` (when both run) is the wall fix's own effect, against pi / steps per
+cycle, the slip the half-step offset integrates.
 
 Every variant's cell C_eq is its mean E_d over the same cycles, the configured transient's
 end to the run's end (no MSER choice, so the windows are the same). The paired difference of a
@@ -55,8 +61,10 @@ VARIANTS = {
     "liggghts": ("liggghts", 0.2, 1),
     "liggghts_mesh4": ("liggghts", 0.2, 4),
     "liggghts_dt0.1": ("liggghts", 0.1, 1),
-    "dem": ("dem", 0.2, "exact"),
-    "dem_dt0.1": ("dem", 0.1, "exact"),
+    "dem": ("dem", 0.2, "viblin"),
+    "dem_dt0.1": ("dem", 0.1, "viblin"),
+    "dem_exact": ("dem_reference", 0.2, "exact"),
+    "dem_exact_dt0.1": ("dem_reference", 0.1, "exact"),
     "dem_viblin": ("dem_reference", 0.2, "viblin"),
     "dem_viblin_dt0.1": ("dem_reference", 0.1, "viblin"),
 }
@@ -148,12 +156,18 @@ def main() -> None:
                     z = f"{paired['z_paired']:+.1f}"
                 lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | {name} | {fraction:g} | "
                              f"{text} | {diff} | {z} | {close} of {values.size} | {cpu[name]:.0f} |")
-            if "dem" in ceq and "dem_viblin" in ceq:
+            for suffix, fraction in (("", 0.2), ("_dt0.1", 0.1)):
+                exact = f"dem_exact{suffix}" if f"dem_exact{suffix}" in ceq else None
+                viblin = next((v for v in (f"dem_viblin{suffix}", f"dem{suffix}") if v in ceq), None)
+                if not (exact and viblin):
+                    continue
                 paired = paired_difference(
-                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq["dem"])]},
-                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq["dem_viblin"])]})
-                steps = CellScene.of(ShakeSettings.from_config(load_config())).timestep(freq).steps_per_cycle
-                lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | dem_viblin vs dem | 0.2 | "
+                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[exact])]},
+                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[viblin])]})
+                config = load_config()
+                config["fidelity"]["timestep_rayleigh_fraction"] = fraction
+                steps = CellScene.of(ShakeSettings.from_config(config)).timestep(freq).steps_per_cycle
+                lines.append(f"| {freq:g} Hz, 1 g, {args.fill:g} % | {viblin} vs {exact} | {fraction:g} | "
                              f"pi / steps per cycle = {100 * math.pi / steps:.3f} % | "
                              f"{100 * paired['paired_rel_diff']:+.3f} +- "
                              f"{100 * paired['paired_rel_diff_sem']:.3f} % | "
