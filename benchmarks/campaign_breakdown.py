@@ -2,7 +2,8 @@
 check reads (issue 12): the figures the README quotes from the default 5 % campaigns.
 
 From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU and the
-reached count of the 1 g cases; the cases whose pilot failed a steady-state check
+reached count of the 1 g cases; the engine CPU of the runs by kind, used and not used (a
+pilot replaced by a longer run is not used); the cases whose pilot failed a steady-state check
 (``not_steady``/``not_stationary``), the CPU of their runs after the pilot and how many ended
 without such a flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
 and |z_paired|, the paired agreement by acceleration among the cases both solvers passed, the
@@ -31,6 +32,17 @@ SAME_KEYS = ("ceq_cell_ns_m", "ceq_cell_sem_ns_m", "status", "flags")
 def load_records(results: Path) -> list[dict]:
     """Every case record of a results folder, by case id order."""
     return [json.loads(p.read_text()) for p in sorted((results / "cases").glob("*.json"))]
+
+
+def cpu_by_kind(records: list[dict]) -> str:
+    """The engine CPU of the cases' runs by kind, used and not used (a run replaced by a longer
+    one), s: e.g. ``pilot 88.7 / 38.9; more_cycles (continued) 20.1 / 0.0``."""
+    sums: dict[str, list[float]] = {}
+    for record in records:
+        for run in (record.get("target") or {}).get("runs", []):
+            kind = run["kind"] + (" (continued)" if run.get("continued") else "")
+            sums.setdefault(kind, [0.0, 0.0])[0 if run["used"] else 1] += run["cpu_time_s"]
+    return "; ".join(f"{kind} {used:.1f} / {unused:.1f}" for kind, (used, unused) in sums.items())
 
 
 def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list[str]:
@@ -72,7 +84,8 @@ def main() -> None:
              f"cases reached their target; 1 g: {len(one_g)} cases, {one_g_cpu:.0f} s CPU "
              f"({one_g_cpu / total_cpu:.0%}), {sum(1 for r in one_g if r['target'].get('reached'))} "
              f"reached; pilots failing a steady-state check: {len(unsteady)}, their later runs "
-             f"{after:.0f} s CPU, {cleared} of them ended without such a flag"]
+             f"{after:.0f} s CPU, {cleared} of them ended without such a flag",
+             f"engine CPU of the runs by kind (used / not used), s: {cpu_by_kind(records)}"]
     grid_path = results / "validation" / "grid.csv"
     if grid_path.is_file():
         grid = pd.read_csv(grid_path)

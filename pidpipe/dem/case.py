@@ -12,10 +12,16 @@ ledgers: the balance, its mismatch with the term-by-term sum, and the dissipatio
 contact type. With ``settings.motion`` the kernel samples the bed's motion within the cycle
 as the LIGGGHTS deck does, and the record's ``regime`` and ``motion`` come from it by the same
 code (:func:`pidpipe.measurement.inspection.motion_record`).
+
+A case's run can go on (:func:`start_dem_case`, :class:`DemCaseRun`): its end state stays in
+memory, and :meth:`DemCaseRun.extend` takes it on to more measured cycles, giving the record of
+one run that long from the pour, to the last bit; the allocation's "more cycles" steps use it
+(:func:`pidpipe.measurement.adaptive.run_to_target`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import platform
 import time
 from pathlib import Path
@@ -29,7 +35,7 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.from_scene import dem_scene
-from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, run_cycles_sampled, start
+from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, CycleRun, start
 from pidpipe.liggghts.parsing import CycleSeries
 from pidpipe.liggghts.shake import RECORD_VERSION, checked_packing_list, containment_flags
 from pidpipe.measurement.cells import summarise_cells
@@ -65,17 +71,96 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
     dict
         The case record.
     """
-    started, cpu_started = time.perf_counter(), time.process_time()
-    packings = checked_packing_list(packings, case.case_id)
+    return start_dem_case(settings, case, packings, workdir).record
+
+
+def start_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
+                   workdir: str | Path | None = None) -> "DemCaseRun":
+    """:func:`run_dem_case`, keeping the run's end state so that it can go on (:class:`DemCaseRun`)."""
+    return DemCaseRun(settings, case, packings)
+
+
+class DemCaseRun:
+    """One case's run in the compiled DEM, kept in memory so that it can be continued.
+
+    The run shakes the case for its configured transient + ``measured_cycles`` cycles and
+    keeps its end state (positions, velocities, spins, forces, contact history, the walls'
+    phase): :meth:`extend` runs the cycles that make it a run of more measured cycles and gives
+    the record that one run of that length from the pour gives, to the last bit
+    (tests/dem/test_case.py): the series extended, and the steady-state verdict, the measured
+    cycles and every summary decided on the whole of it. Only the record's timing differs:
+    ``engine`` (``cpu_time_s``, ``wall_time_s``, ``steps``) and ``wall_time_s`` are the last
+    call's alone, and ``engine.continued_from_cycles`` the cycles the run had before it
+    (0 for the first).
+
+    Parameters
+    ----------
+    settings, case, packings
+        As for :func:`run_dem_case`.
+
+    Attributes
+    ----------
+    record : dict
+        The record of the run so far.
+    """
+
+    def __init__(self, settings: ShakeSettings, case: CaseSpec,
+                 packings: Packing | Sequence[Packing]):
+        started, cpu_started = time.perf_counter(), time.process_time()
+        self.settings, self.case = settings, case
+        self.packings = checked_packing_list(packings, case.case_id)
+        self.cell_scene = CellScene.of(settings)
+        scene = dem_scene(self.cell_scene, case.freq_hz, [case.accel_g] * len(self.packings))
+        scene, state, ws = start(scene, np.stack([packing.centres() for packing in self.packings]))
+        self.scene = scene
+        self.run = CycleRun(scene, state, ws, settings.motion)
+        self.record: dict = {}
+        self._go_on(settings, started, cpu_started)
+
+    @property
+    def configured_transient(self) -> int:
+        """The case's configured transient, cycles."""
+        return self.settings.sampling.transient_cycles_at(self.case.freq_hz)
+
+    def extend(self, measured_cycles: int) -> dict:
+        """Go on to ``measured_cycles`` measured cycles (more than the run has) and return the record.
+
+        Raises
+        ------
+        ValueError
+            ``measured_cycles`` is not more than the run's measured cycles.
+        """
+        started, cpu_started = time.perf_counter(), time.process_time()
+        sampling = self.settings.sampling
+        if measured_cycles <= sampling.measured_cycles:
+            raise ValueError(f"a run of {sampling.measured_cycles} measured cycles goes on to more, "
+                             f"not to {measured_cycles}")
+        settings = dataclasses.replace(
+            self.settings, sampling=dataclasses.replace(sampling, measured_cycles=int(measured_cycles)))
+        return self._go_on(settings, started, cpu_started)
+
+    def _go_on(self, settings: ShakeSettings, started: float, cpu_started: float) -> dict:
+        before = self.run.n_cycles
+        self.run.run(self.configured_transient + settings.sampling.measured_cycles - before)
+        self.settings = settings
+        self.record = case_record(settings, self.case, self.packings, self.cell_scene, self.scene,
+                                  self.run.cycles(), self.run.motion())
+        wall_time, cpu_time = time.perf_counter() - started, time.process_time() - cpu_started
+        self.record["engine"] = engine_record(wall_time, cpu_time,
+                                              (self.run.n_cycles - before) * self.scene.steps_per_cycle)
+        self.record["engine"]["continued_from_cycles"] = before
+        self.record["wall_time_s"] = wall_time
+        return self.record
+
+
+def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing],
+                cell_scene: CellScene, scene, cycles: dict, motion) -> dict:
+    """The record of a DEM case from its run's ledgers (:meth:`CycleRun.cycles`) and sampled
+    motion (or None); ``engine`` and ``wall_time_s`` are the caller's to add."""
     k = len(packings)
     sampling = settings.sampling
     block = sampling.sem_block_cycles
     configured_transient = sampling.transient_cycles_at(case.freq_hz)
-    n_cycles = configured_transient + sampling.measured_cycles
-    cell_scene = CellScene.of(settings)
-    scene = dem_scene(cell_scene, case.freq_hz, [case.accel_g] * k)
-    scene, state, ws = start(scene, np.stack([packing.centres() for packing in packings]))
-    cycles, motion = run_cycles_sampled(scene, state, ws, n_cycles, settings.motion)
     series = summed_series(cycles)
     balance = cycles["dissipated_balance_j"]
     steady = assess_steady_state(series.dissipated_j, series.energy_j, configured_transient,
@@ -95,7 +180,6 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
     flags = (containment_flags(cell_scene, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
              + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else []))
     measured = slice(transient, None)
-    wall_time, cpu_time = time.perf_counter() - started, time.process_time() - cpu_started
     return {
         "record_version": RECORD_VERSION,
         "solver": SOLVER_NAME,
@@ -117,7 +201,6 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
                                     [packing.seed for packing in packings], ENGINE_NAME,
                                     configured_transient, packings[0].pile_height_m,
                                     pour_engines(packings)),
-        "engine": engine_record(wall_time, cpu_time, n_cycles * scene.steps_per_cycle),
         "dem": {
             "balance_dissipated_j": balance.sum(axis=0).tolist(),
             "balance_cycle_mean_j": float(balance[:, measured].mean()),
@@ -128,7 +211,6 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
                 f"{term}_{ctype}_j": float(cycles[f"{term}_{ctype}_j"][:, measured].mean())
                 for term in DISSIPATION_TERMS for ctype in CONTACT_TYPES},
         },
-        "wall_time_s": wall_time,
     }
 
 

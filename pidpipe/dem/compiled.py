@@ -125,15 +125,16 @@ def set_up(scene: Scene, state: State, ws: KernelWorkspace) -> None:
 
 
 def _run(state: State, ws: KernelWorkspace, n_cycles: int, steps_per_cycle: int, reset: bool,
-         reference: np.ndarray, motion_window: int = 0, motion_every: int = 1
-         ) -> tuple[np.ndarray, ...]:
+         reference: np.ndarray, motion_window: int = 0, motion_every: int = 1,
+         motion: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     n_batch = state.n_batch
     work, gross = np.zeros((n_batch, n_cycles)), np.zeros((n_batch, n_cycles))
     terms = np.zeros((4, 2, n_batch, n_cycles))
     energy = np.zeros((kernel.N_ENERGY_ROWS, n_batch, n_cycles + 1))
     end = state.step + n_cycles * steps_per_cycle
-    n_windows = end // motion_window if motion_window > 0 else 0
-    motion = np.zeros((kernel.N_MOTION_ROWS, n_batch, n_windows + 1))
+    if motion is None:
+        n_windows = end // motion_window if motion_window > 0 else 0
+        motion = np.zeros((kernel.N_MOTION_ROWS, n_batch, n_windows + 1))
     _call(kernel.run, *ws.state_arrays(state), int(state.step), int(n_cycles),
           int(steps_per_cycle), bool(reset), ws.terms_raw, ws.wall_work_acc,
           ws.gross_wall_work_acc, np.ascontiguousarray(reference, dtype=float), work, gross,
@@ -150,14 +151,16 @@ def advance(state: State, ws: KernelWorkspace, n_steps: int) -> None:
 
 def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
                reference_height_m: np.ndarray, motion_window: int = 0,
-               motion_every: int = 1) -> dict[str, np.ndarray]:
+               motion_every: int = 1, motion: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Whole cycles with the ledger of each, in one kernel call.
 
     With ``motion_window`` > 0 the call also samples the bed's motion in windows of that many
     steps, counted from step 0 (``motion_every``, a divisor of it, spaces the samples of the
     floor and lid forces): the result then has ``motion``, the kernel's (N_MOTION_ROWS,
     n_batch, n_windows + 1) array (rows ``kernel.M_*``), n_windows the windows that end by the
-    end of the call.
+    end of the call. A ``motion`` array passed in is added into instead (the kernel samples the
+    windows below its last column, whatever their number: a run continued call after call
+    passes the same windows, grown).
 
     Returns
     -------
@@ -173,7 +176,7 @@ def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
                          f"{motion_window} steps")
     work, gross, terms, energy, motion = _run(state, ws, int(n_cycles), scene.steps_per_cycle,
                                               True, reference_height_m, motion_window,
-                                              motion_every)
+                                              motion_every, motion)
     extra = {"motion": motion} if motion_window > 0 else {}
     return dict(**extra, wall_work_j=work, gross_work_j=gross, terms_j=terms,
                 kinetic_translational=energy[kernel.E_TRANS],

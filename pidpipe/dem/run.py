@@ -163,15 +163,87 @@ def run_cycles_sampled(scene: Scene, state: State, ws: compiled.KernelWorkspace,
         at the window ends, the heights averaged over each window's two ends as LIGGGHTS'
         are. None without sampling.
     """
-    window = 0 if sampling is None else sampling.window_steps(scene.steps_per_cycle)
-    every = 1 if sampling is None else int(sampling.sample_every_steps)
-    out = compiled.run_cycles(scene, state, ws, int(n_cycles), centre_of_mass_height(state),
-                              window, every)
-    boundary = {key: out[key] for key in ("kinetic_translational", "kinetic_rotational",
-                                          "potential", "elastic", "ledger")}
-    cycles = cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
-                           out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
-    return cycles, (None if sampling is None else bed_motion(scene, state, out["motion"], window))
+    run = CycleRun(scene, state, ws, sampling)
+    run.run(n_cycles)
+    return run.cycles(), run.motion()
+
+
+BOUNDARY_KEYS = ("kinetic_translational", "kinetic_rotational", "potential", "elastic", "ledger",
+                 "centre_of_mass_z_m", "lowest_z_m", "highest_z_m")
+"""The kernel outputs at the cycle boundaries (n_cycles + 1 columns); the others are per cycle."""
+
+
+class CycleRun:
+    """Whole cycles of one batch, run call after call as one run: its ledgers and sampled
+    motion, so far, are those of a single call of all the cycles.
+
+    The state, the workspace (contact history, the walls' last force) and the step count carry
+    the kernel from one call to the next; what a call would start afresh is kept here: the
+    zero of the potential energy (the centre of mass when the run started) and the bed-motion
+    windows, one partial window beyond the last whole one, whose sums the next call goes on
+    adding to. The kernel's near lists are rebuilt at every call, and list the same contacts in
+    the same order whenever they are built (:func:`pidpipe.dem.kernel._build_near`), so a run
+    of n + m cycles in two calls gives the same numbers, to the last bit, as one call
+    (tests/dem/test_run.py).
+
+    Parameters
+    ----------
+    scene : Scene
+    state : State
+        With its forces evaluated (:func:`start`); advanced in place.
+    ws : pidpipe.dem.compiled.KernelWorkspace
+    sampling : MotionSampling or None
+        As for :func:`run_cycles_sampled`.
+
+    Attributes
+    ----------
+    n_cycles : int
+        Cycles run so far.
+    """
+
+    def __init__(self, scene: Scene, state: State, ws: compiled.KernelWorkspace,
+                 sampling: MotionSampling | None = None):
+        self.scene, self.state, self.ws, self.sampling = scene, state, ws, sampling
+        self.reference_m = centre_of_mass_height(state)
+        self.window = 0 if sampling is None else sampling.window_steps(scene.steps_per_cycle)
+        self.every = 1 if sampling is None else int(sampling.sample_every_steps)
+        self.n_cycles = 0
+        self._out: dict[str, np.ndarray] = {}
+        self._motion: np.ndarray | None = None
+
+    def run(self, n_cycles: int) -> None:
+        """Run ``n_cycles`` more cycles (at least one) in one kernel call."""
+        if n_cycles < 1:
+            raise ValueError(f"a run goes on by at least one cycle, not {n_cycles}")
+        motion = None
+        if self.window > 0:
+            end = self.state.step + int(n_cycles) * self.scene.steps_per_cycle
+            motion = np.zeros((kernel.N_MOTION_ROWS, self.state.n_batch, end // self.window + 2))
+            if self._motion is not None:
+                motion[:, :, :self._motion.shape[2]] = self._motion
+        out = compiled.run_cycles(self.scene, self.state, self.ws, int(n_cycles),
+                                  self.reference_m, self.window, self.every, motion)
+        self._motion = out.pop("motion", None)
+        if self._out:
+            out = {key: np.concatenate([self._out[key], value[..., 1:] if key in BOUNDARY_KEYS
+                                        else value], axis=-1) for key, value in out.items()}
+        self._out = out
+        self.n_cycles += int(n_cycles)
+
+    def cycles(self) -> dict:
+        """The ledgers of every cycle so far, as :func:`run_cycles` returns them."""
+        out = self._out
+        boundary = {key: out[key] for key in BOUNDARY_KEYS[:5]}
+        return cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
+                             out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
+
+    def motion(self) -> BedMotion | None:
+        """The bed's motion in every whole window so far (as :func:`run_cycles_sampled`), or
+        None without sampling."""
+        if self._motion is None:
+            return None
+        whole = self.state.step // self.window
+        return bed_motion(self.scene, self.state, self._motion[:, :, :whole + 1], self.window)
 
 
 def bed_motion(scene: Scene, state: State, sampled: np.ndarray, window_steps: int) -> BedMotion:

@@ -6,7 +6,9 @@ cells the two variance components of the case's SEM are estimated (the spread be
 and the cells' cycle noise, :func:`pidpipe.measurement.cells.mean_of_cells`); then
 :func:`pidpipe.measurement.allocation.plan_next_step` chooses, from the engine's cost model,
 the cheapest next step: more cells (new packings, new runs), more cycles on the cells already
-shaken (the same runs again, longer: they replay the shorter ones cycle for cycle), or both.
+shaken, or both. More cycles continue each run from where it ended when the engine can
+(the compiled DEM: ``extend``, and the cost of only the cycles added); otherwise the same runs
+are made again, longer (LIGGGHTS: they replay the shorter ones cycle for cycle).
 After each step the components are estimated again from all the cells, and so on until the SEM
 is at most the target, or a cap stops it (``max_cells_per_case``, ``max_measured_cycles``,
 ``max_case_cpu_s``, :data:`MAX_STEPS`): then the record is flagged ``target_not_reached`` and
@@ -26,6 +28,8 @@ CPU and wall time of each, and the sums.
 from __future__ import annotations
 
 import copy
+import dataclasses
+import functools
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -74,8 +78,9 @@ def components_of(record: dict) -> Components:
 def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | None,
                       limits: Limits, shake: Callable[[list, int, int], dict],
                       new_packings: Callable[[int, int], list],
-                      costs: Callable[[dict], tuple[Callable[[int, int], float], float]],
-                      combine: Callable[[list[dict]], dict]) -> dict:
+                      costs: Callable[[dict], tuple],
+                      combine: Callable[[list[dict]], dict],
+                      extend: Callable[[int, int], dict] | None = None) -> dict:
     """Run the pilot, then the planned steps, and return the case's combined record.
 
     Parameters
@@ -95,23 +100,33 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         (cells 0 .. k0-1 are the pilot's).
     costs : callable
         ``costs(pilot_record) -> (run_cpu_s, pour_cpu_s)``: the cost of one run of k cells x n
-        measured cycles (s) and the CPU charged per new packing (s).
+        measured cycles (s) and the CPU charged per new packing (s); with ``extend``, a third
+        element ``extend_cpu_s(k, n, n_new)``: the cost of taking a run of k cells on from n to
+        n_new measured cycles (s).
     combine : callable
         ``combine(records) -> record``: the case record of the runs' cells together (:func:`combine_runs`).
+    extend : callable, optional
+        ``extend(run_index, measured_cycles) -> record``: take the run made as ``run_index`` on
+        to ``measured_cycles`` and return its record, the record of one run that long. With it,
+        more cycles continue the runs (each run keeps its index, its entries in ``runs`` are
+        ``continued``); without, they make them again.
 
     Returns
     -------
     dict
         The combined record; with a target, ``target`` = {relative_sem, reached, cells,
-        measured_cycles, not_chased (why no step followed the pilot, or None), runs (every run: index, kind, seeds, measured cycles, used, cpu_time_s,
-        planned_cpu_s, wall_time_s), steps (each planned step), cpu_time_s, planned_cpu_s,
-        wall_time_s}, and ``target_not_reached`` in ``flags`` when it was missed.
+        measured_cycles, not_chased (why no step followed the pilot, or None), runs (every
+        run, and every continuation of one: index, kind, continued, from_measured_cycles,
+        seeds, measured cycles, used, cpu_time_s, planned_cpu_s, wall_time_s), steps (each
+        planned step), cpu_time_s, planned_cpu_s, wall_time_s}, and ``target_not_reached``
+        in ``flags`` when it was missed.
     """
     groups = [list(pilot)]                       # packings of each current run, by run index
     records = [shake(groups[0], pilot_cycles, 0)]
     if relative_sem is None:
         return records[0]
-    run_cpu_s, pour_cpu_s = costs(records[0])
+    run_cpu_s, pour_cpu_s, *more = costs(records[0])
+    extend_cpu_s = more[0] if extend is not None else None
     cycles = pilot_cycles
     history = [_run_entry(records[0], 0, "pilot", groups[0], run_cpu_s(len(groups[0]), cycles))]
     planned_steps = []
@@ -128,19 +143,21 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
             break
         cells = sum(len(groups[i]) for i in current)
         spent = sum(entry["planned_cpu_s"] for entry in history)
+        continue_cpu_s = None if extend is None else functools.partial(
+            _continue_cpu_s, [len(groups[i]) for i in current], cycles, extend_cpu_s)
         step = plan_next_step(components_of(case), cells, cycles, spent, relative_sem * value,
-                              limits, run_cpu_s, pour_cpu_s)
+                              limits, run_cpu_s, pour_cpu_s, continue_cpu_s)
         if step is None:
             break
         planned_steps.append(step.as_record())
-        current = _take_step(step, groups, current, shake, new_packings, run_cpu_s, pour_cpu_s,
+        runs = Runs(shake, extend, run_cpu_s, extend_cpu_s, pour_cpu_s)
+        current = _take_step(step, cycles, groups, current, runs, new_packings,
                              limits.cells_per_run, history)
         cycles = step.cycles
         case = combine([current[i] for i in sorted(current)])
     reached = bool(case["ceq_cell_sem_ns_m"] <= relative_sem * case["ceq_cell_ns_m"]
                    and case["ceq_cell_ns_m"] > 0.0)
-    for entry in history:
-        entry["used"] = entry["run"] in current and entry is _latest(history, entry["run"])
+    _mark_used(history, current)
     case["target"] = {
         "relative_sem": relative_sem, "reached": reached,
         "cells": sum(len(groups[i]) for i in current), "measured_cycles": cycles,
@@ -156,18 +173,45 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     return case
 
 
-def _take_step(step: Step, groups: list[list], current: dict[int, dict], shake: Callable,
-               new_packings: Callable, run_cpu_s: Callable, pour_cpu_s: float, cells_per_run: int,
-               history: list[dict]) -> dict[int, dict]:
-    """Make the runs of ``step``; return the records now current, by run index. Each run's
-    ``planned_cpu_s`` includes the pours charged for the new packings it shakes."""
+@dataclasses.dataclass(frozen=True)
+class Runs:
+    """How a case's runs are made and priced: ``shake`` and ``extend`` as for
+    :func:`measure_to_target` (``extend`` None: runs are not continued), ``run_cpu_s(k, n)``,
+    ``extend_cpu_s(k, n, n_new)`` and ``pour_cpu_s`` the planned CPU of each (s)."""
+
+    shake: Callable
+    extend: Callable | None
+    run_cpu_s: Callable
+    extend_cpu_s: Callable | None
+    pour_cpu_s: float
+
+
+def _continue_cpu_s(run_cells: list[int], cycles: int, extend_cpu_s: Callable,
+                    new_cycles: int) -> float:
+    """Planned CPU of taking every run (of these cells each) on from ``cycles`` to ``new_cycles``, s."""
+    return float(sum(extend_cpu_s(k, cycles, new_cycles) for k in run_cells))
+
+
+def _take_step(step: Step, cycles: int, groups: list[list], current: dict[int, dict], runs: Runs,
+               new_packings: Callable, cells_per_run: int, history: list[dict]) -> dict[int, dict]:
+    """Make the runs of ``step`` (from ``cycles`` measured cycles); return the records now
+    current, by run index. Each new run's ``planned_cpu_s`` includes the pours charged for the
+    new packings it shakes; a continued run's is that of the cycles added."""
     cells = sum(len(groups[i]) for i in current)
     added = new_packings(cells, step.new_cells) if step.new_cells else []
-    if step.kind == "more_cycles":                # the same runs, longer (they replay)
+    current = dict(current)
+    for index in sorted(current) if step.continued_cells else []:   # the runs go on
+        record = runs.extend(index, step.cycles)
+        current[index] = record
+        history.append(_run_entry(record, index, step.kind, groups[index],
+                                  runs.extend_cpu_s(len(groups[index]), cycles, step.cycles),
+                                  continued_from=cycles))
+    if step.kind == "more_cycles" and not step.continued_cells:   # the same runs, longer (they replay)
         plan = [(i, groups[i]) for i in sorted(current)]
         current = {}
-    elif step.kind == "more_cells":
-        plan = [(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(added, cells_per_run))]
+    elif step.kind == "more_cells" or step.continued_cells:
+        plan = ([(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(added, cells_per_run))]
+                if added else [])
     else:                                         # both: every cell, in new runs
         everything = [p for i in sorted(current) for p in groups[i]] + added
         plan = [(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(everything, cells_per_run))]
@@ -176,12 +220,24 @@ def _take_step(step: Step, groups: list[list], current: dict[int, dict], shake: 
     for index, packings in plan:
         if index == len(groups):
             groups.append(packings)
-        record = shake(packings, step.cycles, index)
+        record = runs.shake(packings, step.cycles, index)
         current[index] = record
         pours = sum(id(packing) in fresh for packing in packings)
         history.append(_run_entry(record, index, step.kind, packings,
-                                  run_cpu_s(len(packings), step.cycles) + pours * pour_cpu_s))
+                                  runs.run_cpu_s(len(packings), step.cycles) + pours * runs.pour_cpu_s))
     return current
+
+
+def _mark_used(history: list[dict], current: dict[int, dict]) -> None:
+    """Set each entry's ``used``: its cells' cycles are in the case record (its run is current
+    and it is the run's last entry, or one that the later, continued, entries took on)."""
+    for entry in history:
+        entry["used"] = False
+    for run in current:
+        for entry in reversed([entry for entry in history if entry["run"] == run]):
+            entry["used"] = True
+            if not entry["continued"]:
+                break
 
 
 def _chunks(items: list, size: int) -> list[list]:
@@ -191,12 +247,13 @@ def _chunks(items: list, size: int) -> list[list]:
     return [items[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _latest(history: list[dict], run: int) -> dict:
-    return [entry for entry in history if entry["run"] == run][-1]
-
-
-def _run_entry(record: dict, index: int, kind: str, packings: list, planned_cpu_s: float) -> dict:
-    return {"run": index, "kind": kind, "seeds": [int(p.seed) for p in packings],
+def _run_entry(record: dict, index: int, kind: str, packings: list, planned_cpu_s: float,
+               continued_from: int | None = None) -> dict:
+    """One entry of ``target.runs``: a run, or the part of it that a continuation added (its
+    ``continued`` true, ``from_measured_cycles`` the measured cycles it went on from, 0 for a
+    run from the pour; its CPU that of the continuation alone)."""
+    return {"run": index, "kind": kind, "continued": continued_from is not None,
+            "from_measured_cycles": int(continued_from or 0), "seeds": [int(p.seed) for p in packings],
             "cells": len(packings), "measured_cycles": int(record["fidelity"]["measured_cycles"]),
             "transient_cycles": int(record["fidelity"]["transient_cycles"]),
             "status": record["status"], "flags": list(record["flags"]),
@@ -270,10 +327,12 @@ def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_co
 
 
 def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
-                  run: Callable[[ShakeSettings, object, list, Path], dict],
+                  run: Callable[[ShakeSettings, object, list, Path], dict] | None = None,
                   new_packings: Callable[[int, int], list] | None = None,
                   cost_model=None, steps_per_cycle: int | None = None,
-                  transient_cycles: int | None = None) -> dict:
+                  transient_cycles: int | None = None,
+                  start: Callable[[ShakeSettings, object, list, Path], object] | None = None
+                  ) -> dict:
     """A case measured to ``sampling.target_relative_sem`` with ``run`` (:func:`measure_to_target`).
 
     Parameters
@@ -298,6 +357,14 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
     steps_per_cycle, transient_cycles : int, optional
         Of the case's runs (the cost model counts time steps); by default the case's own, from
         its scene's timestep and its sampling.
+    start : callable, optional
+        For an engine whose runs can go on: ``start(settings, case, packings, workdir) -> run``
+        makes a run as ``run`` does (:func:`pidpipe.dem.case.start_dem_case`) and keeps it, an
+        object with ``record`` (its record) and ``extend(measured_cycles) -> record`` (the run
+        taken on to more measured cycles, its record that of one run that long). Every run is
+        then made with it and kept in memory for the case, and more cycles continue them, each
+        priced as the cost model's run of the cycles added alone (no transient). ``run`` is then
+        not needed.
     """
     from pidpipe.cell.layout import MAX_CELLS
     from pidpipe.cell.scene import CellScene
@@ -312,9 +379,20 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
     workdir = Path(workdir)
     target = sampling.target_relative_sem
 
+    if run is None and start is None:
+        raise ValueError("run_to_target needs an engine's run or start")
+    kept = {}
+
     def shake(cells: list, cycles: int, index: int) -> dict:
         staged = replace(settings, sampling=replace(sampling, measured_cycles=int(cycles)))
-        return run(staged, case, cells, workdir if index == 0 else workdir / f"run{index}")
+        folder = workdir if index == 0 else workdir / f"run{index}"
+        if start is None:
+            return run(staged, case, cells, folder)
+        kept[index] = start(staged, case, cells, folder)
+        return kept[index].record
+
+    def extend(index: int, cycles: int) -> dict:
+        return kept[index].extend(int(cycles))
 
     def costs(pilot_record: dict):
         n_spheres = int(pilot_record["n_spheres"])
@@ -322,7 +400,8 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
             "pilot", run_cpu_time_s(pilot_record), len(pilot), n_spheres,
             steps_per_cycle * (transient_cycles + sampling.measured_cycles))
         return ((lambda k, n: model.run_cpu_s(k, n_spheres, steps_per_cycle * (transient_cycles + n))),
-                model.pour_cpu_s(n_spheres))
+                model.pour_cpu_s(n_spheres),
+                (lambda k, n, n_new: model.run_cpu_s(k, n_spheres, steps_per_cycle * (n_new - n))))
 
     limits = Limits(max_cells=sampling.max_cells_per_case if new_packings is not None else len(pilot),
                     max_cycles=sampling.max_measured_cycles,
@@ -330,4 +409,5 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
     return measure_to_target(
         pilot, sampling.measured_cycles, target, limits, shake,
         new_packings or (lambda first, count: []), costs,
-        lambda records: combine_runs(records, case.freq_hz, case.accel_g, settings.coupon_n_cells))
+        lambda records: combine_runs(records, case.freq_hz, case.accel_g, settings.coupon_n_cells),
+        extend if start is not None else None)

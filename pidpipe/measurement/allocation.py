@@ -10,15 +10,20 @@ packings, sigma_b^2, which only more cells reduce, and the cells' long-run cycle
 Three kinds of step can follow (all cells of a case always have the same measured cycles):
 
 - ``more_cells``: m new packings shaken for the current N cycles, in new runs;
-- ``more_cycles``: the same K cells run again for N' > N cycles (the same layout replays the
+- ``more_cycles``: the same K cells for N' > N cycles. An engine whose runs go on from where
+  they ended (the compiled DEM) continues each run for N' - N cycles, and pays only those;
+  otherwise (LIGGGHTS) the same runs are made again, longer (the same layout replays the
   shorter run cycle for cycle, so the longer run replaces it; its transient and first N cycles
   are paid again);
-- ``both``: K + m cells in new runs of N' cycles (the old runs are replaced).
+- ``both``: K + m cells of N' cycles, all in new runs (the old runs are replaced), or, for an
+  engine that continues its runs and where that is cheaper, the K cells' runs continued and the
+  m new ones shaken in new runs.
 
 Every step's CPU time comes from a cost model of one run of k cells x n cycles (``run_cpu_s``,
 transient included, e.g. :class:`pidpipe.measurement.cost_model.CostModel` bound to the case's
-frequency and spheres), plus ``pour_cpu_s`` per new packing; a run holds at most
-``cells_per_run`` cells, more are split into several runs. For each total cell count K' the
+frequency and spheres), plus ``pour_cpu_s`` per new packing, and, for an engine that
+continues its runs, ``continue_cpu_s(N')``: the CPU time of taking every current run on from N
+to N' cycles; a run holds at most ``cells_per_run`` cells, more are split into several runs. For each total cell count K' the
 fewest cycles N' that reach the target are the cheapest, so :func:`plan_next_step` scans K'
 and takes the cheapest step within the caps; when no step reaches the target within them it
 takes the cheapest step whose predicted SEM is within 2 % of the smallest that the caps
@@ -103,7 +108,8 @@ class Step:
     new_cells : int
         Packings added.
     run_cells : int
-        Cells shaken by the step's runs (new ones only, or all).
+        Cells shaken in new runs, from their pour (the new ones only, or all of the case's when
+        the old runs are replaced).
     cycles : int
         Measured cycles of the step's runs (the case's N afterwards).
     cpu_s : float
@@ -111,6 +117,9 @@ class Step:
     predicted_sem : float
         The case's SEM after it, as planned, N s/m.
     reaches_target : bool
+    continued_cells : int
+        Cells whose runs go on to ``cycles`` (all the case's cells before the step when its
+        runs are continued, else 0).
     """
 
     kind: str
@@ -120,6 +129,7 @@ class Step:
     cpu_s: float
     predicted_sem: float
     reaches_target: bool
+    continued_cells: int = 0
 
     def as_record(self) -> dict:
         return dataclasses.asdict(self)
@@ -136,20 +146,32 @@ def runs_cpu_s(cells: int, cycles: int, run_cpu_s: Callable[[int, int], float],
 
 def step_to(cells: int, cycles: int, new_cells: int, new_cycles: int, components: Components,
             target_sem: float, run_cpu_s: Callable[[int, int], float], pour_cpu_s: float,
-            cells_per_run: int) -> Step:
-    """The step from ``cells`` x ``cycles`` to ``cells + new_cells`` x ``new_cycles``, with its cost."""
+            cells_per_run: int, continue_cpu_s: Callable[[int], float] | None = None) -> Step:
+    """The step from ``cells`` x ``cycles`` to ``cells + new_cells`` x ``new_cycles``, with its
+    cost; with ``continue_cpu_s`` (see :func:`plan_next_step`) more cycles continue the runs,
+    or, for a ``both`` step, the cheaper of that and shaking all cells in new runs (one run of
+    all cells can cost less than the old runs continued beside a run of the new ones: an
+    engine's per-step cost that does not grow with the cells is paid once)."""
+    sem = components.sem(cells + new_cells, new_cycles)
     if new_cycles == cycles:
         kind, run_cells = "more_cells", new_cells
     else:
         kind, run_cells = ("both", cells + new_cells) if new_cells else ("more_cycles", cells)
     cost = runs_cpu_s(run_cells, new_cycles, run_cpu_s, cells_per_run) + new_cells * pour_cpu_s
-    sem = components.sem(cells + new_cells, new_cycles)
-    return Step(kind, new_cells, run_cells, new_cycles, cost, sem, sem <= target_sem)
+    step = Step(kind, new_cells, run_cells, new_cycles, cost, sem, sem <= target_sem)
+    if continue_cpu_s is None or new_cycles == cycles:
+        return step
+    cost = continue_cpu_s(new_cycles) + new_cells * pour_cpu_s
+    if new_cells:
+        cost += runs_cpu_s(new_cells, new_cycles, run_cpu_s, cells_per_run)
+    continued = Step(kind, new_cells, new_cells, new_cycles, cost, sem, sem <= target_sem, cells)
+    return continued if continued.cpu_s <= step.cpu_s else step
 
 
 def plan_next_step(components: Components, cells: int, cycles: int, spent_cpu_s: float,
                    target_sem: float, limits: Limits, run_cpu_s: Callable[[int, int], float],
-                   pour_cpu_s: float) -> Step | None:
+                   pour_cpu_s: float, continue_cpu_s: Callable[[int], float] | None = None
+                   ) -> Step | None:
     """The cheapest step that reaches the target within the caps, else the one that comes closest.
 
     Parameters
@@ -168,6 +190,10 @@ def plan_next_step(components: Components, cells: int, cycles: int, spent_cpu_s:
     pour_cpu_s : float
         CPU time charged for each new packing, s (0 if already poured; a share of a pour when
         the packing is shared by several cases).
+    continue_cpu_s : callable, optional
+        ``continue_cpu_s(n)``: CPU time of taking every current run on from ``cycles`` to
+        ``n`` measured cycles, s, for an engine whose runs go on from where they ended; None:
+        more cycles make the runs again (they replay), at ``run_cpu_s`` of the longer runs.
 
     Returns
     -------
@@ -186,11 +212,11 @@ def plan_next_step(components: Components, cells: int, cycles: int, spent_cpu_s:
             if total == cells and new_cycles == cycles:
                 continue
             step = step_to(cells, cycles, total - cells, new_cycles, components, target_sem,
-                           run_cpu_s, pour_cpu_s, limits.cells_per_run)
+                           run_cpu_s, pour_cpu_s, limits.cells_per_run, continue_cpu_s)
             if step.cpu_s > budget:
                 step = largest_affordable(cells, cycles, total - cells, new_cycles, budget,
                                           components, target_sem, run_cpu_s, pour_cpu_s,
-                                          limits.cells_per_run)
+                                          limits.cells_per_run, continue_cpu_s)
             if step is not None:
                 affordable.append(step)
     reaching = [step for step in affordable if step.predicted_sem <= plan_sem * (1 + 1e-12)]
@@ -208,12 +234,13 @@ def plan_next_step(components: Components, cells: int, cycles: int, spent_cpu_s:
 def largest_affordable(cells: int, cycles: int, new_cells: int, max_new_cycles: int,
                        budget_s: float, components: Components, target_sem: float,
                        run_cpu_s: Callable[[int, int], float], pour_cpu_s: float,
-                       cells_per_run: int) -> Step | None:
+                       cells_per_run: int, continue_cpu_s: Callable[[int], float] | None = None
+                       ) -> Step | None:
     """The step adding ``new_cells`` with the most cycles (``cycles`` .. ``max_new_cycles``) that
     ``budget_s`` pays for; None if even ``cycles`` is too dear (or nothing would change)."""
     def step(n: int) -> Step:
         return step_to(cells, cycles, new_cells, n, components, target_sem, run_cpu_s,
-                       pour_cpu_s, cells_per_run)
+                       pour_cpu_s, cells_per_run, continue_cpu_s)
 
     low = cycles if new_cells else cycles + 1
     if low > max_new_cycles or step(low).cpu_s > budget_s:

@@ -224,7 +224,8 @@ def simulate_cases(config: dict, case_ids: list[str], packing_paths: list[list[s
 
 def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdir: str | Path,
                  pour_settings: PourSettings | None = None, packing_pool: str | Path | None = None,
-                 movie: MovieSettings | None = None, movie_dir: str | Path | None = None) -> dict:
+                 movie: MovieSettings | None = None, movie_dir: str | Path | None = None,
+                 continue_runs: bool = True) -> dict:
     """One case measured to its target (:func:`pidpipe.measurement.adaptive.run_to_target`).
 
     Parameters
@@ -241,6 +242,10 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
         (:func:`pool_packings`); None (or no pool): the case keeps its pilot's cells.
     movie, movie_dir : optional
         Also write each LIGGGHTS run's ParaView movie into ``movie_dir`` (engine liggghts only).
+    continue_runs : bool
+        More cycles continue the runs where the engine can (:func:`case_starter`); False: they
+        make them again, longer, as on LIGGGHTS (to measure what continuing saves,
+        ``benchmarks/bench_continuation.py``).
 
     Returns
     -------
@@ -264,7 +269,18 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
     return run_to_target(settings, case, packings, workdir, run=shake, new_packings=new_packings,
                          cost_model=load_cost_model(settings.engine),
                          steps_per_cycle=plan.steps_per_cycle,
-                         transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz))
+                         transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz),
+                         start=case_starter(settings) if continue_runs else None)
+
+
+def case_starter(settings: ShakeSettings):
+    """For an engine whose runs can go on from where they ended, the function that starts one
+    (``dem``: :func:`pidpipe.dem.case.start_dem_case`); None for ``liggghts``, whose longer
+    runs replay the shorter ones from the pour."""
+    if settings.engine == "dem":
+        from pidpipe.dem.case import start_dem_case
+        return start_dem_case
+    return None
 
 
 def case_runner(settings: ShakeSettings):

@@ -13,7 +13,7 @@ import pytest
 from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
 from pidpipe.config.settings import PourSettings, ShakeSettings
-from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case
+from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case, start_dem_case
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.adaptive import run_to_target
@@ -97,19 +97,60 @@ def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, b
     assert together["ceq_cell_sem_ns_m"] >= together["ceq_cell_cycle_sem_ns_m"]
 
 
-def test_adaptive_cycles_extend_a_dem_case_until_the_target(packings):
+def test_a_dem_case_reaches_its_target_by_continuing_its_run_and_lists_every_part(packings, tmp_path):
+    """The case step (engine: dem) continues the pilot's run for more cycles, and the record
+    lists the pilot and each continuation, all used; the case is the one longer run from the
+    pour (its series to the last bit), at the CPU of the cycles added."""
+    from pidpipe.steps.cases import measure_case
+
     config = short_config(transient=10, measured=8)
+    config["engine"] = "dem"
     config["fidelity"].update(target_relative_sem=0.05, max_measured_cycles=200)
-    record = run_to_target(ShakeSettings.from_config(config), CASE, packings[0], "unused",
-                           run=run_dem_case)
+    settings = ShakeSettings.from_config(config)
+    record = measure_case(settings, CASE, [packings[0]], tmp_path)
     target = record["target"]
     runs = target["runs"]
     assert runs[0]["kind"] == "pilot" and runs[0]["measured_cycles"] == 8
-    # one packing and no pool to pour more from: only cycles can be added
-    assert len(runs) >= 2 and all(run["kind"] == "more_cycles" for run in runs[1:])
+    # one packing and no pool to pour more from: only cycles can be added, by continuing
+    assert len(runs) >= 2 and all(run["kind"] == "more_cycles" and run["continued"] for run in runs[1:])
+    assert all(run["run"] == 0 and run["used"] for run in runs)
+    for before, run in zip(runs, runs[1:]):
+        assert run["from_measured_cycles"] == before["measured_cycles"] < run["measured_cycles"]
     assert record["fidelity"]["measured_cycles"] == target["measured_cycles"] == runs[-1]["measured_cycles"]
     assert target["reached"] or "target_not_reached" in record["flags"]
+    assert target["cpu_time_s"] == pytest.approx(sum(run["cpu_time_s"] for run in runs))
     assert target["cpu_time_s"] > 0
+    longer = run_dem_case(ShakeSettings.from_config(short_config(
+        transient=10, measured=target["measured_cycles"])), CASE, packings[0])
+    assert record["cycles"] == longer["cycles"] and record["flags"] == longer["flags"] + (
+        [] if target["reached"] else ["target_not_reached"])
+    assert record["ceq_cell_ns_m"] == longer["ceq_cell_ns_m"]
+    assert record["ceq_cell_sem_ns_m"] == longer["ceq_cell_sem_ns_m"]
+
+
+def _untimed(record: dict) -> str:
+    """A record as JSON without what only timing sets (engine, wall time)."""
+    return json.dumps({key: value for key, value in record.items()
+                       if key not in ("engine", "wall_time_s")}, sort_keys=True)
+
+
+def test_a_continued_dem_case_is_the_longer_run_from_the_pour_to_the_last_bit(packings):
+    """Two cells shaken for 10 + 8 cycles and continued to 10 + 20 give the record of one run
+    of 10 + 20 cycles: every series, summary, steady-state verdict and motion profile equal to
+    the last bit; only the timing differs, the continuation's own."""
+    config = short_config(transient=10, measured=8)
+    run = start_dem_case(ShakeSettings.from_config(config), CASE, packings)
+    assert run.record["fidelity"]["measured_cycles"] == 8
+    continued = run.extend(20)
+    longer = run_dem_case(ShakeSettings.from_config(short_config(transient=10, measured=20)),
+                          CASE, packings)
+    assert len(continued["cycles"]["dissipated_j"]) == 30
+    assert _untimed(continued) == _untimed(longer)
+    assert continued["engine"]["continued_from_cycles"] == 18
+    assert continued["engine"]["steps"] == 12 * longer["fidelity"]["steps_per_cycle"]
+    assert longer["engine"]["continued_from_cycles"] == 0
+    with pytest.raises(ValueError, match="goes on to more"):
+        run.extend(20)
 
 
 def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_case():

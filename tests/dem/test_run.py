@@ -77,3 +77,37 @@ def test_record_discards_the_transient_by_the_liggghts_paths_rule(settled_11):
     assert record["ed_cycle_mean_j"] == pytest.approx(terms[discarded:].mean(), rel=1e-12)
     assert record["flags"] == expected.flags
     assert record["status"] == ("flagged" if expected.flags else "ok")
+
+
+def test_a_run_continued_gives_the_numbers_of_one_longer_run_to_the_last_bit(settled_11):
+    """3 + 2 cycles in two kernel calls (with the bed's motion sampled in windows that do not
+    tile the cycle, so one window straddles the calls) equal 5 cycles in one call, bit for bit:
+    every ledger, every motion window and the end state with its contact history."""
+    from pidpipe.config.inspection import MotionSampling
+    from pidpipe.dem.run import CycleRun
+
+    scene = spec_scene(freq_hz=1000.0, accel_g=[10.0, 10.0])
+    sampling = MotionSampling(7, 3)
+    assert scene.steps_per_cycle % sampling.window_steps(scene.steps_per_cycle) != 0
+    packings = np.stack([settled_11, settled_11[::-1]])
+    runs = []
+    for calls in ([5], [3, 2]):
+        run = CycleRun(*start(scene, packings), sampling)
+        for n_cycles in calls:
+            run.run(n_cycles)
+        runs.append(run)
+    one, two = runs
+    assert two.n_cycles == 5 and two.state.step == one.state.step == 5 * scene.steps_per_cycle
+    ledgers = one.cycles(), two.cycles()
+    assert ledgers[0].keys() == ledgers[1].keys()
+    for key in ledgers[0]:
+        assert np.array_equal(ledgers[0][key], ledgers[1][key]), key
+    assert ledgers[0]["wall_work_j"].shape == (2, 5)
+    motions = one.motion(), two.motion()
+    for field in ("power_w", "floor_force_n", "lid_force_n", "energy_j", "centre_m", "bottom_m",
+                  "top_m"):
+        assert np.array_equal(getattr(motions[0], field), getattr(motions[1], field)), field
+    for name in ("x", "v", "omega", "force", "torque", "shear", "tangential_energy"):
+        assert np.array_equal(getattr(one.state, name), getattr(two.state, name)), name
+    assert np.array_equal(one.ws.history, two.ws.history)
+    assert np.array_equal(one.ws.wall_force_z, two.ws.wall_force_z)

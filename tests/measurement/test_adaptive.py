@@ -41,6 +41,9 @@ class SyntheticEngine:
 
     def shake(self, packings, cycles, index):
         self.calls.append((index, [p.seed for p in packings], cycles))
+        return self._record(packings, cycles, index, 1000 * (TRANSIENT + cycles))
+
+    def _record(self, packings, cycles, index, steps):
         total = TRANSIENT + cycles
         series = []
         for position, packing in enumerate(packings):
@@ -54,8 +57,32 @@ class SyntheticEngine:
                 "cycles": {"dissipated_j": np.sum(series, axis=0).tolist()},
                 "fidelity": {"transient_cycles": TRANSIENT, "measured_cycles": cycles,
                              "sem_block_cycles": 2, "seed": packings[0].seed},
-                "engine": {"cpu_time_s": MODEL.run_cpu_s(len(packings), 11, 1000 * total)},
+                "engine": {"cpu_time_s": MODEL.run_cpu_s(len(packings), 11, steps)},
                 "wall_time_s": 0.0}
+
+
+class ContinuingEngine(SyntheticEngine):
+    """The synthetic engine whose runs go on from where they ended, as the compiled DEM's: a
+    run continued to n cycles is the run of n cycles, and costs only the cycles added."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.runs = {}
+
+    def shake(self, packings, cycles, index):
+        self.runs[index] = (packings, cycles)
+        return super().shake(packings, cycles, index)
+
+    def extend(self, index, cycles):
+        packings, before = self.runs[index]
+        assert cycles > before
+        self.calls.append(("extend", index, cycles))
+        self.runs[index] = (packings, cycles)
+        return self._record(packings, cycles, index, 1000 * (cycles - before))
+
+
+def extend_cost(k, n, n_new):
+    return MODEL.run_cpu_s(k, 11, 1000 * (n_new - n))
 
 
 def packings_from(first_seed):
@@ -68,8 +95,12 @@ def costs(pour_s):
 
 def measure(engine, target, limits, pilot_cells=7, pilot_cycles=40, pour_s=5.0):
     pilot = [FakePacking(100 + j) for j in range(pilot_cells)]
+    extend = getattr(engine, "extend", None)
+    cost = costs(pour_s)
+    if extend is not None:
+        cost = (lambda pilot_record: (*costs(pour_s)(pilot_record), extend_cost))
     return measure_to_target(pilot, pilot_cycles, target, limits, engine.shake, packings_from(100),
-                             costs(pour_s), lambda records: combine_runs(records, F_HZ, G, 441))
+                             cost, lambda records: combine_runs(records, F_HZ, G, 441), extend)
 
 
 LIMITS = Limits(max_cells=96, max_cycles=2000, max_cpu_s=1e4, cells_per_run=24)
@@ -170,3 +201,54 @@ def test_more_cells_than_a_run_holds_go_in_several_runs():
     assert all(len(seeds) <= 10 for _, seeds, _ in engine.calls)
     assert record["target"]["cells"] == len(record["cells"]) > 10
     assert math.isfinite(record["ceq_cell_sem_ns_m"])
+
+
+def test_more_cycles_continue_the_runs_of_an_engine_that_can_and_cost_only_the_cycles_added():
+    replayed = measure(SyntheticEngine(packing_std=0.0, cycle_noise=1.5), 0.05, LIMITS, pour_s=50.0)
+    engine = ContinuingEngine(packing_std=0.0, cycle_noise=1.5)
+    record = measure(engine, 0.05, LIMITS, pour_s=50.0)
+    target = record["target"]
+    assert target["reached"] and target["cells"] == 7 and target["steps"][0]["kind"] == "more_cycles"
+    # one run from the pour, then only continuations of it
+    assert [call[0] for call in engine.calls] == [0] + ["extend"] * (len(engine.calls) - 1)
+    runs = target["runs"]
+    assert len(runs) == len(engine.calls) > 1
+    assert [entry["continued"] for entry in runs] == [False] + [True] * (len(runs) - 1)
+    assert all(entry["used"] and entry["run"] == 0 for entry in runs)   # the pilot's cycles count
+    for before, entry in zip(runs, runs[1:]):
+        assert entry["from_measured_cycles"] == before["measured_cycles"] < entry["measured_cycles"]
+        assert entry["planned_cpu_s"] == pytest.approx(
+            extend_cost(7, before["measured_cycles"], entry["measured_cycles"]))
+        assert entry["cpu_time_s"] == pytest.approx(entry["planned_cpu_s"])
+    assert target["planned_cpu_s"] == pytest.approx(sum(entry["planned_cpu_s"] for entry in runs))
+    # the same plan as the replaying engine's, at less CPU: the pilot's transient and cycles
+    # are not paid again
+    assert [s["cycles"] for s in target["steps"]] == [s["cycles"] for s in replayed["target"]["steps"]]
+    assert record["ceq_cell_ns_m"] == replayed["ceq_cell_ns_m"]
+    saved = target["planned_cpu_s"] - replayed["target"]["planned_cpu_s"]
+    assert saved == pytest.approx(-len(runs[1:]) * (MODEL.run_cpu_s(7, 11, 1000 * TRANSIENT) - MODEL.overhead_s)
+                                  - sum(MODEL.run_cpu_s(7, 11, 1000 * entry["from_measured_cycles"])
+                                        - MODEL.overhead_s for entry in runs[1:]))
+
+
+def test_both_continues_the_old_runs_and_shakes_the_new_cells_in_new_runs():
+    engine = ContinuingEngine(packing_std=0.3, cycle_noise=1.0)
+    record = measure(engine, 0.05, LIMITS, pour_s=0.5)
+    target = record["target"]
+    both = target["steps"][0]
+    assert both["kind"] == "both" and both["continued_cells"] == 7
+    assert both["run_cells"] == both["new_cells"] > 0
+    step = [entry for entry in target["runs"][1:] if entry["kind"] == "both"]
+    # planned as taken: the old run's added cycles, the new runs from the pour and their pours
+    assert both["cpu_s"] == pytest.approx(sum(entry["planned_cpu_s"] for entry in step))
+    old = [entry for entry in step if entry["continued"]]
+    assert [entry["run"] for entry in old] == [0] and old[0]["kind"] == "both"
+    fresh = [entry for entry in step if not entry["continued"] and entry["kind"] == "both"]
+    assert fresh and all(entry["run"] > 0 and entry["measured_cycles"] == old[0]["measured_cycles"]
+                         for entry in fresh)
+    assert sum(entry["cells"] for entry in fresh) == both["new_cells"]
+    assert all(entry["used"] for entry in target["runs"])
+    # every cell of the estimate is listed once in the runs from the pour
+    seeds = [seed for entry in target["runs"] if not entry["continued"] for seed in entry["seeds"]]
+    assert sorted(seeds) == sorted(record["fidelity"]["seeds"]) and len(set(seeds)) == target["cells"]
+    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record["cells"])

@@ -91,3 +91,41 @@ def test_caps_stop_the_plan_short_of_the_target():
 def test_more_cells_than_a_run_holds_are_split_over_runs():
     assert runs_cpu_s(30, 40, run_cost, 24) == pytest.approx(2 * run_cost(15, 40))
     assert runs_cpu_s(24, 40, run_cost, 24) == pytest.approx(run_cost(24, 40))
+
+
+def continue_cost(n_new: int) -> float:
+    """Taking the 7 cells of one 40-cycle run on to ``n_new`` cycles: the cycles added alone."""
+    return MODEL.run_cpu_s(7, 11, 1000 * (n_new - 40))
+
+
+def test_more_cycles_on_an_engine_that_continues_cost_only_the_cycles_added():
+    noise = components(0.0, 0.2)                     # cycle noise only: more cycles
+    replay = plan_next_step(noise, 7, 40, 10.0, 0.05, LIMITS, run_cost, 5.0)
+    continued = plan_next_step(noise, 7, 40, 10.0, 0.05, LIMITS, run_cost, 5.0, continue_cost)
+    assert replay.kind == continued.kind == "more_cycles" and continued.cycles == replay.cycles
+    assert (replay.run_cells, replay.continued_cells) == (7, 0)
+    assert (continued.run_cells, continued.continued_cells) == (0, 7)
+    assert replay.cpu_s == pytest.approx(run_cost(7, replay.cycles))
+    assert continued.cpu_s == pytest.approx(continue_cost(continued.cycles))
+    # the transient and the 40 cycles already run are not paid again
+    assert replay.cpu_s - continued.cpu_s == pytest.approx(run_cost(7, 40) - MODEL.overhead_s)
+
+
+def test_both_continues_the_old_runs_only_where_that_is_cheaper():
+    """With a per-step cost that does not grow with the cells (10 us here), one run of all the
+    cells can cost less than the old run continued beside a run of the new cells: the cheaper
+    is planned."""
+    continued = plan_next_step(components(0.12, 0.15), 7, 40, 10.0, 0.05, LIMITS, run_cost, 5.0,
+                               continue_cost)
+    assert continued.kind == "both" and continued.continued_cells == 7
+    assert continued.run_cells == continued.new_cells == 2
+    assert continued.cpu_s == pytest.approx(continue_cost(continued.cycles)
+                                            + run_cost(2, continued.cycles) + 2 * 5.0)
+    assert continued.cpu_s < run_cost(9, continued.cycles) + 2 * 5.0
+    fresh = plan_next_step(components(0.10, 0.30), 7, 40, 10.0, 0.05, LIMITS, run_cost, 5.0,
+                           continue_cost)
+    assert fresh.kind == "both" and fresh.continued_cells == 0
+    assert fresh.run_cells == 7 + fresh.new_cells
+    assert fresh.cpu_s == pytest.approx(run_cost(fresh.run_cells, fresh.cycles) + fresh.new_cells * 5.0)
+    assert fresh.cpu_s < (continue_cost(fresh.cycles) + run_cost(fresh.new_cells, fresh.cycles)
+                          + fresh.new_cells * 5.0)
