@@ -20,8 +20,8 @@ The machine is shared: CPU time, not wall time, is compared, and the load averag
 With ``--jobs`` instead: the DEM campaign's pour stage as Snakemake runs it, before and after
 the pours of one fill were batched (issue 13). A scratch copy of the workflow (config.yaml,
 ``engine: dem``, ``fidelity.pour_engine: dem``) runs ``snakemake --cores 2 packings`` twice:
-once with ``--allowed-rules`` keeping only ``pour_packing`` (one job per packing, as before)
-and once as it is (``pour_dem_packings``, one job per fill). Each run's wall (Snakemake start
+once with the scratch copy's ruleorder turned round (``pour_packing`` first: one job per
+packing, as before) and once as it is (``pour_dem_packings``, one job per fill). Each run's wall (Snakemake start
 to end), the CPU of all its processes, and the jobs' summed wall and CPU (Snakemake's benchmark
 files); the two runs' packings are compared byte for byte. Then, in this process, each fill's
 packings poured one by one (:func:`pidpipe.dem.pour.pour`) against one batched call
@@ -77,19 +77,25 @@ def fresh_process_cpu_s(engine: str, fill: float, workdir: Path) -> float:
     return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
-def pour_stage(work: Path, allowed: list[str] | None) -> dict:
-    """Run ``snakemake --cores 2 packings`` in ``work`` (its results removed first): wall, CPU of
-    all its processes, the jobs' summed wall and CPU, and the packings' bytes."""
+def pour_stage(work: Path, per_packing: bool) -> dict:
+    """Run ``snakemake --cores 2 packings`` in ``work`` (its results removed first), with
+    ``per_packing`` the scratch workflow's ruleorder turned round (pour_packing first); wall, CPU
+    of all its processes, the jobs' summed wall and CPU, and the packings' bytes."""
     import shutil
+
+    rules = work / "workflow" / "rules" / "packing.smk"
+    order = ("ruleorder: pour_dem_packings > pour_packing", "ruleorder: pour_packing > pour_dem_packings")
+    text = rules.read_text()
+    if order[0] not in text and order[1] not in text:
+        sys.exit(f"{rules}: no ruleorder of pour_dem_packings and pour_packing to turn round")
+    rules.write_text(text.replace(*(order if per_packing else order[::-1])))
 
     shutil.rmtree(work / "results", ignore_errors=True)
     shutil.rmtree(work / ".snakemake", ignore_errors=True)
-    command = [str(Path(sys.executable).parent / "snakemake"), "--cores", "2", "--quiet", "rules"]
-    if allowed:
-        command += ["--allowed-rules", *allowed]
+    command = [str(Path(sys.executable).parent / "snakemake"), "packings", "--cores", "2"]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = time.perf_counter()
-    done = subprocess.run(command + ["packings"], cwd=work, capture_output=True, text=True)
+    done = subprocess.run(command, cwd=work, capture_output=True, text=True)
     wall = time.perf_counter() - wall
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
@@ -124,9 +130,8 @@ def bench_jobs(note: str) -> None:
         config["engine"] = "dem"
         config["fidelity"]["pour_engine"] = "dem"
         (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-        runs = {"one job per packing (pour_packing, before)": pour_stage(
-                    work, ["pour_packing", "check_packings", "packings"]),
-                "one job per fill (pour_dem_packings, after)": pour_stage(work, None)}
+        runs = {"one job per packing (pour_packing, before)": pour_stage(work, True),
+                "one job per fill (pour_dem_packings, after)": pour_stage(work, False)}
     (before, one), (after, batched) = runs.items()
     same = one["packings"].keys() == batched["packings"].keys() and all(
         one["packings"][name] == batched["packings"][name] for name in one["packings"])
