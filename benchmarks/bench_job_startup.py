@@ -38,7 +38,6 @@ import json
 import os
 import re
 import resource
-import shutil
 import statistics
 import subprocess
 import sys
@@ -47,10 +46,9 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-import yaml
 from _record import append
+from _workflow import dem_workflow
 
-REPO = Path(__file__).resolve().parent.parent
 PYTHON = sys.executable
 
 # Run inside the fresh process: time the phases of one saved Snakemake job script.
@@ -166,15 +164,12 @@ def median_pair(values: list[list[float]]) -> tuple[float, float]:
 def part_one(repeats: int, cores: int, lines: list[str]) -> None:
     with tempfile.TemporaryDirectory(prefix="bench_job_startup_") as scratch:
         work = Path(scratch)
-        for item in ("Snakefile", "workflow", "templates"):
-            source = REPO / item
-            (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
-        config = yaml.safe_load((REPO / "config.yaml").read_text())
-        config["engine"] = "dem"
-        config["fidelity"]["pour_engine"] = "dem"
-        config["grid"] = {"freq_hz": [1000], "accel_g": [10], "fill_pct": [25]}
-        config["inspection"]["phase_figure_cases"] = []
-        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+        def one_case(config: dict) -> None:
+            config["grid"] = {"freq_hz": [1000], "accel_g": [10], "fill_pct": [25]}
+            config["inspection"]["phase_figure_cases"] = []
+
+        dem_workflow(work, one_case)
         snakemake = str(Path(PYTHON).parent / "snakemake")
         wall, cpu, _ = timed_run([snakemake, "--cores", str(cores), "--quiet", "rules",
                                   "--skip-script-cleanup", "cases"], work)

@@ -112,24 +112,15 @@ def pour_stage(work: Path, per_packing: bool) -> dict:
 
 def bench_jobs(note: str) -> None:
     """The pour stage of the DEM campaign, one job per packing against one job per fill."""
-    import shutil
-
-    import yaml
+    from _workflow import dem_workflow
 
     from pidpipe.dem.pour import pour as dem_pour
     from pidpipe.dem.pour import pour_replicates
 
-    repo = Path(__file__).resolve().parent.parent
     load_start = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_pour_jobs_") as scratch:
         work = Path(scratch)
-        for item in ("Snakefile", "workflow", "templates"):
-            source = repo / item
-            (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
-        config = yaml.safe_load((repo / "config.yaml").read_text())
-        config["engine"] = "dem"
-        config["fidelity"]["pour_engine"] = "dem"
-        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+        config = dem_workflow(work)
         runs = {"one job per packing (pour_packing, before)": pour_stage(work, True),
                 "one job per fill (pour_dem_packings, after)": pour_stage(work, False)}
     (before, one), (after, batched) = runs.items()
