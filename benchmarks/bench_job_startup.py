@@ -3,7 +3,7 @@
 Part 1, one job of each kind. A scratch copy of the workflow runs a one-case DEM campaign
 (engine dem, pour_engine dem; 1000 Hz, 10 g, 25 %; the config's cells_per_run pours) with
 ``snakemake cases --skip-script-cleanup``, which keeps the Python script Snakemake made for
-each job. The ``pour_packing`` and ``simulate_dem_cases`` (here one case) scripts are then run again, ``--repeats``
+each job. The ``pour_dem_packings`` (the fill's cells_per_run packings) and ``simulate_dem_cases`` (here one case) scripts are then run again, ``--repeats``
 times each in a fresh process as Snakemake runs them, timed phase by phase from inside
 (CPU and wall; the machine is shared, so CPU is the steadier figure):
 
@@ -38,7 +38,6 @@ import json
 import os
 import re
 import resource
-import shutil
 import statistics
 import subprocess
 import sys
@@ -47,10 +46,9 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-import yaml
 from _record import append
+from _workflow import dem_workflow
 
-REPO = Path(__file__).resolve().parent.parent
 PYTHON = sys.executable
 
 # Run inside the fresh process: time the phases of one saved Snakemake job script.
@@ -100,9 +98,9 @@ def timing(module, name, box, count=False):
     setattr(module, name, timed)
 import pidpipe.steps.cases as _cases
 timing(_cases, "pool_packings", pool, count=True)
-if "pour_packing" in sys.argv[1]:
+if ".pour_" in sys.argv[1]:
     import pidpipe.dem.pour as _pour
-    timing(_pour, "pour", engine)
+    timing(_pour, "pour_replicates", engine)
 else:
     import pidpipe.dem.case as _case
     timing(_case, "run_dem_case", engine)
@@ -119,7 +117,7 @@ print(json.dumps({"phases": phases, "loads": loads, "pool_pours": pool[2]}))
 
 # What each step imports on its way to the engine (lazily, inside the step's functions).
 STEP_IMPORTS = {
-    "pour_packing": "pidpipe.dem.pouring,pidpipe.dem.pour,pidpipe.cell.packing",
+    "pour_dem_packings": "pidpipe.dem.pouring,pidpipe.dem.pour,pidpipe.cell.packing",
     "simulate_dem_cases": "pidpipe.dem.case,pidpipe.cell.packing,pidpipe.cell.scene,"
                      "pidpipe.measurement.adaptive,pidpipe.measurement.cost_model,pidpipe.liggghts.shake",
 }
@@ -166,15 +164,12 @@ def median_pair(values: list[list[float]]) -> tuple[float, float]:
 def part_one(repeats: int, cores: int, lines: list[str]) -> None:
     with tempfile.TemporaryDirectory(prefix="bench_job_startup_") as scratch:
         work = Path(scratch)
-        for item in ("Snakefile", "workflow", "templates"):
-            source = REPO / item
-            (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
-        config = yaml.safe_load((REPO / "config.yaml").read_text())
-        config["engine"] = "dem"
-        config["fidelity"]["pour_engine"] = "dem"
-        config["grid"] = {"freq_hz": [1000], "accel_g": [10], "fill_pct": [25]}
-        config["inspection"]["phase_figure_cases"] = []
-        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
+
+        def one_case(config: dict) -> None:
+            config["grid"] = {"freq_hz": [1000], "accel_g": [10], "fill_pct": [25]}
+            config["inspection"]["phase_figure_cases"] = []
+
+        dem_workflow(work, one_case)
         snakemake = str(Path(PYTHON).parent / "snakemake")
         wall, cpu, _ = timed_run([snakemake, "--cores", str(cores), "--quiet", "rules",
                                   "--skip-script-cleanup", "cases"], work)
@@ -189,10 +184,10 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
             row = dict(zip(header.split("\t"), values.split("\t")))
             bench.setdefault(tsv.parent.name, []).append((float(row["s"]), float(row["cpu_time"])))
         lines.append(f"One-case DEM campaign (`snakemake cases`, {len(jobs)} jobs: "
-                     f"{len(spans['pour_packing'])} pours, the check, 1 case) on {cores} cores: "
+                     f"{len(spans['pour_dem_packings'])} pour job(s), the check, 1 case) on {cores} cores: "
                      f"{wall:.1f} s wall, {cpu:.1f} s CPU; Snakemake before the first job and after "
                      f"the last {wall - (last - first):.1f} s.")
-        for rule in ("pour_packing", "simulate_dem_cases"):
+        for rule in ("pour_dem_packings", "simulate_dem_cases"):
             if rule in bench:
                 lines.append(f"- {rule}: job span (Snakemake) median {statistics.median(spans[rule]):.2f} s; "
                              f"its script's process (benchmark file) median wall "
@@ -200,9 +195,9 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                              f"{statistics.median(b[1] for b in bench[rule]):.2f} s")
         empty = [timed_run([PYTHON, "-c", "pass"], work)[:2] for _ in range(repeats)]
         lines += ["", f"Each job's script run again in a fresh process, {repeats} times (median; wall / CPU s):",
-                  "", "| phase | pour_packing wall | CPU | simulate_dem_cases wall | CPU |", "|---|---|---|---|---|"]
+                  "", "| phase | pour_dem_packings wall | CPU | simulate_dem_cases wall | CPU |", "|---|---|---|---|---|"]
         results, outer = {}, {}
-        for rule in ("pour_packing", "simulate_dem_cases"):
+        for rule in ("pour_dem_packings", "simulate_dem_cases"):
             script = sorted((work / ".snakemake" / "scripts").glob(f"*.{rule}.py"))[0]
             runs = []
             outer[rule] = []
@@ -217,12 +212,12 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
             table[phase] = {r: [run["phases"][phase] for run in results[r]] for r in results}
         for phase, values in table.items():
             cells = []
-            for rule in ("pour_packing", "simulate_dem_cases"):
+            for rule in ("pour_dem_packings", "simulate_dem_cases"):
                 w, c = median_pair(values[rule])
                 cells += [f"{w:.3f}", f"{c:.3f}"]
             lines.append(f"| {phase} | " + " | ".join(cells) + " |")
         cells = []
-        for rule in ("pour_packing", "simulate_dem_cases"):
+        for rule in ("pour_dem_packings", "simulate_dem_cases"):
             w, c = median_pair(outer[rule])
             cells += [f"**{w:.3f}**", f"**{c:.3f}**"]
         lines.append("| whole process (timed from outside) | " + " | ".join(cells) + " |")
@@ -271,7 +266,7 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
         job["cores"] = threads.get(job["rule"], 1)
     t0 = min(j["start"] for j in jobs)
     end = max(j["end"] for j in jobs)
-    stages = {"pours": ["pour_packing"], "packing check": ["check_packings"],
+    stages = {"pours": ["pour_packing", "pour_dem_packings"], "packing check": ["check_packings"],
               "cases": ["simulate_case", "simulate_dem_cases"]}
     lines += ["", f"Campaign {campaign}: {len(jobs)} jobs, first job start to last job end "
               f"{end - t0:.1f} s on {cores} cores; job time {sum(j['end'] - j['start'] for j in jobs):.1f} s.",
@@ -308,10 +303,14 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
         pool_count += len(times)
         pool_times += [b - a for a, b in zip(times, times[1:]) if b - a < 10]
     if pool_count:
-        lines.append(f"Packings poured on demand inside case jobs: {pool_count}, one after another in "
-                     f"their job; {statistics.median(pool_times):.2f} s apart (median of consecutive "
-                     f"pours in one job), so about {pool_count * statistics.median(pool_times):.0f} s of "
-                     "case-job time.")
+        # pool pours of one call (pidpipe.steps.cases.pool_packings) are logged together when it ends
+        calls = pool_count - sum(1 for gap in pool_times if gap < 0.05)
+        together = [gap for gap in pool_times if gap >= 0.05]
+        lines.append(f"Packings poured on demand inside case jobs: {pool_count}, in {calls} calls "
+                     "(a call pours every packing a step needs that no other case is pouring)"
+                     + (f"; calls one after another in a job {statistics.median(together):.2f} s apart "
+                        "(median; in a campaign from before pool pours were batched, the time of one pour)"
+                        if together else "") + ".")
 
 
 def main() -> None:

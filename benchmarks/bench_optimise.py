@@ -1,83 +1,101 @@
-"""CPU cost of the optimisation stage with the default settings, on a synthetic reference-grid table.
+"""Wall and CPU of the campaign's optimise_environments step, this code against an older commit.
 
-The table is the reference grid (5 f x 3 G x 4 r = 60 cases) of a smooth C_eq with a 5 % SEM on
-every case; the three default environments, 40 starts per design, 200 bootstrap draws with 2
-extra starts each, and the maps' 50 refits. CPU time is the process's (``time.process_time``),
-so other jobs on the machine do not inflate it.
+The step (:func:`pidpipe.steps.design.optimise_surrogate`, two worker processes as the rule's
+``threads: 2``, BLAS on one thread as the rule's script sets it) runs on a finished campaign's
+surrogate and config, alternately with this checkout's pidpipe and with ``--base``'s (exported
+by ``git archive`` into a scratch folder and put first on the path), ``--repeats`` times each,
+each in a fresh process; wall and CPU (the process and its workers) are printed, and the files
+the two write are compared byte for byte. The machine is shared: compare the runs of one call.
 
-    .venv/bin/python benchmarks/bench_optimise.py
+Run: .venv/bin/python benchmarks/bench_optimise.py CAMPAIGN_DIR [--base REV] [--repeats 2] [--note TEXT]
 """
 
 from __future__ import annotations
 
-import itertools
+import argparse
+import json
+import os
+import statistics
+import subprocess
 import sys
-import time
+import tempfile
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
+from _record import append
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+REPO = Path(__file__).resolve().parent.parent
+FILES = ("optimum.csv", "history.csv", "optimum.json", "bootstrap.csv")
 
-from _record import append  # noqa: E402
+STEP = r'''
+import json, os, resource, sys, time
+os.environ.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+import yaml
+from pidpipe.steps.design import optimise_surrogate
+from pidpipe.steps.params import budget_params, environment_params, optimisation_params, workflow_config
+campaign, out = sys.argv[1], sys.argv[2]
+config = workflow_config(yaml.safe_load(open(os.path.join(campaign, "config.yaml"))))
+wall = time.perf_counter()
+optimise_surrogate(os.path.join(campaign, "results", "surrogate.json"), environment_params(config),
+                   budget_params(config), optimisation_params(config),
+                   *(os.path.join(out, name) for name in ("optimum.csv", "history.csv", "optimum.json", "bootstrap.csv")),
+                   workers=2)
+wall = time.perf_counter() - wall
+usage = [resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+print(json.dumps({"wall": wall, "cpu": sum(u.ru_utime + u.ru_stime for u in usage)}))
+'''
 
-from pidpipe.config import load_config  # noqa: E402
-from pidpipe.design.bootstrap import (  # noqa: E402
-    bootstrap_designs,
-    loo_rel_error,
-    resampled_surrogates,
-)
-from pidpipe.design.designs import optimise_designs  # noqa: E402
-from pidpipe.design.optimisation import Budget  # noqa: E402
-from pidpipe.design.surrogate import fit_surrogate  # noqa: E402
-from pidpipe.figures.maps import plot_ceq_freq_accel, plot_ceq_freq_fill  # noqa: E402
-from pidpipe.steps.design import (  # noqa: E402
-    bootstrap_settings,
-    environment_objects,
-    search_settings,
-)
-from pidpipe.steps.params import MAP_DRAWS, budget_params  # noqa: E402
 
-
-def table() -> pd.DataFrame:
-    rows = pd.DataFrame(list(itertools.product((50.0, 100.0, 500.0, 750.0, 1000.0), (1.0, 5.0, 10.0),
-                                               (25.0, 50.0, 75.0, 90.0))),
-                        columns=["freq_hz", "accel_g", "fill_pct"])
-    rows["ceq_coupon_ns_m"] = (2.0 * (rows.freq_hz / 100) ** 1.1 * (1 - np.exp(-(rows.accel_g - 0.5) / 3))
-                               * (rows.fill_pct / 100) * np.exp(-rows.fill_pct / 60))
-    rows["ceq_coupon_sem_ns_m"] = 0.05 * rows["ceq_coupon_ns_m"]
-    return rows
+def run(campaign: Path, out: Path, path: str | None) -> dict:
+    env = dict(os.environ)
+    if path:
+        env["PYTHONPATH"] = path
+    out.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run([sys.executable, "-c", STEP, str(campaign), str(out)], env=env,
+                          capture_output=True, text=True, cwd=campaign)
+    if done.returncode != 0:
+        sys.exit(f"the optimise step failed:\n{done.stderr[-3000:]}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
-    config = load_config()
-    surrogate = fit_surrogate(table())
-    envs = environment_objects(config["environments"])
-    budget = Budget(**budget_params(config))
-    search = search_settings(config["optimisation"])
-    settings = bootstrap_settings(config["optimisation"]["bootstrap"])
-    timings = []
-
-    def timed(label, call):
-        start = time.process_time()
-        value = call()
-        timings.append((label, time.process_time() - start))
-        return value
-
-    results = timed(f"3 designs x {len(envs)} environments, {search.starts} starts each",
-                    lambda: optimise_designs(surrogate, envs, budget, search))
-    loo = timed("surrogate leave-one-out error (60 refits)", lambda: loo_rel_error(surrogate))
-    draws = timed(f"bootstrap, {settings.draws} draws x {len(results)} designs",
-                  lambda: bootstrap_designs(surrogate, results, budget, search, settings, loo=loo))
-    timed(f"maps with their uncertainty ({MAP_DRAWS} refits)", lambda: (
-        plot_ceq_freq_fill(surrogate, draws=list(resampled_surrogates(surrogate, MAP_DRAWS, 11))),
-        plot_ceq_freq_accel(surrogate, draws=list(resampled_surrogates(surrogate, MAP_DRAWS, 11)))))
-    lines = ["| part | CPU, s |", "|---|---|"] + [f"| {label} | {cpu:.1f} |" for label, cpu in timings]
-    lines += ["", f"{int(draws['ok'].sum())} of {len(draws)} draw optimisations converged; "
-              f"surrogate leave-one-out error {100 * loo:.1f} % RMS."]
-    append("Optimisation stage: designs and bootstrap at the default settings",
-           ".venv/bin/python benchmarks/bench_optimise.py", lines)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("campaign", type=Path, help="a finished campaign folder (config.yaml, results/surrogate.json)")
+    parser.add_argument("--base", default="main", help="the commit to compare with")
+    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--note", default="")
+    args = parser.parse_args()
+    campaign = args.campaign.resolve()
+    load = os.getloadavg()
+    with tempfile.TemporaryDirectory(prefix="bench_optimise_") as scratch:
+        scratch = Path(scratch)
+        old = scratch / "base"
+        old.mkdir()
+        archive = subprocess.run(["git", "archive", args.base, "pidpipe", "workflow/schemas"],
+                                 cwd=REPO, check=True, capture_output=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        times = {"base": [], "this": []}
+        for _ in range(args.repeats):
+            times["base"].append(run(campaign, scratch / "out_base", str(old)))
+            times["this"].append(run(campaign, scratch / "out_this", None))
+        same = all((scratch / "out_base" / name).read_bytes() == (scratch / "out_this" / name).read_bytes()
+                   for name in FILES)
+    head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
+                          text=True).stdout.strip()
+    lines = ([f"Note: {args.note}", ""] if args.note else []) + [
+        f"optimise_environments' step on {campaign}'s surrogate (workers 2), {args.repeats} runs each, "
+        f"alternating; load average before {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}, after "
+        + " ".join(f"{x:.2f}" for x in os.getloadavg()) + ".", "",
+        "| code | wall s (each run) | CPU s (each run) | median wall | median CPU |", "|---|---|---|---|---|"]
+    for label, key in ((f"{args.base} (before)", "base"), (f"{head} (this checkout)", "this")):
+        walls, cpus = [t["wall"] for t in times[key]], [t["cpu"] for t in times[key]]
+        lines.append(f"| {label} | {', '.join(f'{w:.1f}' for w in walls)} | {', '.join(f'{c:.1f}' for c in cpus)} | "
+                     f"{statistics.median(walls):.1f} | {statistics.median(cpus):.1f} |")
+    ratio_w = statistics.median(t["wall"] for t in times["this"]) / statistics.median(t["wall"] for t in times["base"])
+    ratio_c = statistics.median(t["cpu"] for t in times["this"]) / statistics.median(t["cpu"] for t in times["base"])
+    lines += ["", f"This / before: wall {ratio_w:.2f}, CPU {ratio_c:.2f}. Files ({', '.join(FILES)}) identical "
+              f"byte for byte: {'yes' if same else 'NO'}."]
+    append("optimise_environments: this code against an older commit", "python benchmarks/bench_optimise.py "
+           + " ".join(sys.argv[1:]), lines)
 
 
 if __name__ == "__main__":

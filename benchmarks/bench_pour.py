@@ -17,7 +17,17 @@ and engine:
 
 The machine is shared: CPU time, not wall time, is compared, and the load average is printed.
 
-Run: .venv/bin/python benchmarks/bench_pour.py [--seeds 10]
+With ``--jobs`` instead: the DEM campaign's pour stage as Snakemake runs it, before and after
+the pours of one fill were batched (issue 13). A scratch copy of the workflow (config.yaml,
+``engine: dem``, ``fidelity.pour_engine: dem``) runs ``snakemake --cores 2 packings`` twice:
+once with the scratch copy's ruleorder turned round (``pour_packing`` first: one job per
+packing, as before) and once as it is (``pour_dem_packings``, one job per fill). Each run's wall (Snakemake start
+to end), the CPU of all its processes, and the jobs' summed wall and CPU (Snakemake's benchmark
+files); the two runs' packings are compared byte for byte. Then, in this process, each fill's
+packings poured one by one (:func:`pidpipe.dem.pour.pour`) against one batched call
+(:func:`pidpipe.dem.pour.pour_replicates`), CPU s, and whether they are identical.
+
+Run: .venv/bin/python benchmarks/bench_pour.py [--seeds 10] | [--jobs [--note TEXT]]
 """
 
 from __future__ import annotations
@@ -67,10 +77,100 @@ def fresh_process_cpu_s(engine: str, fill: float, workdir: Path) -> float:
     return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
+def pour_stage(work: Path, per_packing: bool) -> dict:
+    """Run ``snakemake --cores 2 packings`` in ``work`` (its results removed first), with
+    ``per_packing`` the scratch workflow's ruleorder turned round (pour_packing first); wall, CPU
+    of all its processes, the jobs' summed wall and CPU, and the packings' bytes."""
+    import shutil
+
+    rules = work / "workflow" / "rules" / "packing.smk"
+    order = ("ruleorder: pour_dem_packings > pour_packing", "ruleorder: pour_packing > pour_dem_packings")
+    text = rules.read_text()
+    if order[0] not in text and order[1] not in text:
+        sys.exit(f"{rules}: no ruleorder of pour_dem_packings and pour_packing to turn round")
+    rules.write_text(text.replace(*(order if per_packing else order[::-1])))
+
+    shutil.rmtree(work / "results", ignore_errors=True)
+    shutil.rmtree(work / ".snakemake", ignore_errors=True)
+    command = [str(Path(sys.executable).parent / "snakemake"), "packings", "--cores", "2"]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = time.perf_counter()
+    done = subprocess.run(command, cwd=work, capture_output=True, text=True)
+    wall = time.perf_counter() - wall
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        sys.exit(f"snakemake packings failed:\n{done.stderr[-3000:]}")
+    jobs = []
+    for tsv in sorted((work / "results" / "benchmarks").rglob("*.tsv")):
+        header, values = tsv.read_text().splitlines()[:2]
+        row = dict(zip(header.split("\t"), values.split("\t")))
+        jobs.append((tsv.parent.name, float(row["s"]), float(row["cpu_time"])))
+    return {"wall": wall, "cpu": (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime),
+            "jobs": jobs, "packings": {path.name: path.read_bytes()
+                                       for path in (work / "results" / "packings").glob("r*.json")}}
+
+
+def bench_jobs(note: str) -> None:
+    """The pour stage of the DEM campaign, one job per packing against one job per fill."""
+    from _workflow import dem_workflow
+
+    from pidpipe.dem.pour import pour as dem_pour
+    from pidpipe.dem.pour import pour_replicates
+
+    load_start = os.getloadavg()
+    with tempfile.TemporaryDirectory(prefix="bench_pour_jobs_") as scratch:
+        work = Path(scratch)
+        config = dem_workflow(work)
+        runs = {"one job per packing (pour_packing, before)": pour_stage(work, True),
+                "one job per fill (pour_dem_packings, after)": pour_stage(work, False)}
+    (before, one), (after, batched) = runs.items()
+    same = one["packings"].keys() == batched["packings"].keys() and all(
+        one["packings"][name] == batched["packings"][name] for name in one["packings"])
+    lines = [f"Note: {note}" if note else "", f"Load average before: {load_start[0]:.2f} {load_start[1]:.2f} {load_start[2]:.2f}", "",
+             "`snakemake --cores 2 packings` on config.yaml with engine dem and pour_engine dem "
+             f"({len(one['packings'])} packings, 4 fills x 7 cells):", "",
+             "| pour stage | jobs | Snakemake wall s | CPU s, all processes | jobs' wall s (summed) | jobs' CPU s (summed) |",
+             "|---|---|---|---|---|---|"]
+    for label, run in runs.items():
+        pours = [j for j in run["jobs"] if j[0].startswith("pour")]
+        lines.append(f"| {label} | {len(pours)} | {run['wall']:.1f} | {run['cpu']:.1f} | "
+                     f"{sum(j[1] for j in pours):.1f} | {sum(j[2] for j in pours):.1f} |")
+    lines += ["", f"After / before: Snakemake wall {batched['wall'] / one['wall']:.2f}, CPU "
+              f"{batched['cpu'] / one['cpu']:.2f}. Packings of the two runs identical byte for byte: "
+              f"{'yes' if same else 'NO'} ({len(one['packings'])} files).", ""]
+    settings = PourSettings.from_config(config)
+    dem_pour(settings, FILLS[0], 0)                 # warm-up: loads the kernel
+    lines += ["In one process, the 7 packings of each fill (CPU s):", "",
+              "| fill % | one by one (pour) | one call (pour_replicates) | ratio | batched cells | identical |",
+              "|---|---|---|---|---|---|"]
+    for fill in FILLS:
+        began = cpu_s()
+        alone = [dem_pour(settings, fill, k) for k in range(7)]
+        single = cpu_s() - began
+        began = cpu_s()
+        together = pour_replicates(settings, fill, range(7))
+        batch = cpu_s() - began
+        tops = [plan_pour(settings, fill, k).top_z_m for k in range(7)]
+        shared = sum(tops.count(t) for t in set(tops) if tops.count(t) > 1)
+        lines.append(f"| {fill:g} | {single:.2f} | {batch:.2f} | {batch / single:.2f} | {shared} of 7 | "
+                     f"{'yes' if alone == together else 'NO'} |")
+    lines += ["", "(Batched cells: those sharing their open pouring cell with another replicate, "
+              "which one kernel call pours together; the others are poured one by one in the same call.)",
+              f"Load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}"]
+    append("Pours of the DEM campaign: one job per packing against one batched job per fill (issue 13)",
+           "python benchmarks/bench_pour.py --jobs" + (f" --note '{note}'" if note else ""), lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="replicates poured per fill and engine")
+    parser.add_argument("--jobs", action="store_true",
+                        help="the DEM campaign's pour stage, per packing against per fill")
+    parser.add_argument("--note", default="", help="a note recorded with --jobs (e.g. the load)")
     args = parser.parse_args()
+    if args.jobs:
+        bench_jobs(args.note)
+        return
     from pidpipe.dem.pour import pour as dem_pour
     from pidpipe.liggghts.pour import pour as liggghts_pour
 

@@ -58,18 +58,66 @@ def pour(settings: PourSettings, fill_pct: float, replicate: int,
         ``pour_engine`` ``dem``; ``settle_time_s`` as the LIGGGHTS pour's (the configured
         settle time in whole steps, times the settling periods it took).
     """
-    plan = plan_pour(settings, fill_pct, replicate)
-    still, tapping, shift = pour_scenes(plan)
-    scene, state, ws = start(still, plan.start_m + shift)
-    advance(scene, state, ws, plan.settle_steps)
-    _tap(tapping, still, state, ws, plan.tap_steps)
-    advance(scene, state, ws, plan.settle_steps)
+    return pour_replicates(settings, fill_pct, [replicate])[0]
+
+
+def pour_replicates(settings: PourSettings, fill_pct: float, replicates) -> list[Packing]:
+    """The packings of several replicates of one fill, each exactly as :func:`pour` pours it.
+
+    Replicates whose open pouring cell is the same (the same top of the side walls: at a low
+    fill every seed's highest start is more than 4 radii below the lid) are poured as one batch
+    of cells in each kernel call; the others one by one (the kernel's walls are shared by the
+    cells of a batch, and the open cell's height, so the frame, depends on the seed). The cells
+    of a batch are independent in the kernel (cell by cell, the same arithmetic as alone) and
+    each keeps its own settle check: a cell settled after k settling periods is taken then,
+    while the others go on, so every packing is bit for bit the one :func:`pour` gives alone
+    (tests/dem/test_pour.py).
+
+    Parameters
+    ----------
+    settings : PourSettings
+    fill_pct : float
+        Fill fraction, percent.
+    replicates : sequence of int
+        Replicate indices (seeds ``fidelity.seed`` + replicate).
+
+    Returns
+    -------
+    list of Packing
+        In the order of ``replicates``.
+    """
+    plans = [plan_pour(settings, fill_pct, int(k)) for k in replicates]
+    groups: dict[float, list[int]] = {}
+    for i, plan in enumerate(plans):
+        groups.setdefault(plan.top_z_m, []).append(i)
+    packings: list[Packing | None] = [None] * len(plans)
+    for members in groups.values():
+        for i, packing in zip(members, _pour_batch([plans[i] for i in members])):
+            packings[i] = packing
+    return packings
+
+
+def _pour_batch(plans: list[PourPlan]) -> list[Packing]:
+    """Pour plans that share the open cell (the same ``top_z_m``) as one batch of cells."""
+    first = plans[0]
+    still, tapping, shift = pour_scenes(first)
+    scene, state, ws = start(still, np.stack([plan.start_m + shift for plan in plans]))
+    tapping = dataclasses.replace(tapping, accel_g=np.repeat(tapping.accel_g, state.n_batch))
+    advance(scene, state, ws, first.settle_steps)
+    _tap(tapping, scene, state, ws, first.tap_steps)
+    advance(scene, state, ws, first.settle_steps)
     chunks = 1
-    while _max_speed(state) > SETTLED_SPEED_M_S and chunks <= MAX_FURTHER_SETTLING:
-        advance(scene, state, ws, plan.settle_steps)
+    settled: dict[int, Packing] = {}
+    while True:
+        speeds = _max_speeds(state)
+        for b in range(state.n_batch):
+            if b not in settled and (speeds[b] <= SETTLED_SPEED_M_S or chunks > MAX_FURTHER_SETTLING):
+                settled[b] = settled_packing(plans[b], state.x[:, b, :].T - shift,
+                                             state.v[:, b, :].T, chunks, ENGINE_NAME)
+        if len(settled) == state.n_batch:
+            return [settled[b] for b in range(state.n_batch)]
+        advance(scene, state, ws, first.settle_steps)
         chunks += 1
-    centres = state.x[:, 0, :].T - shift
-    return settled_packing(plan, centres, state.v[:, 0, :].T, chunks, ENGINE_NAME)
 
 
 def pour_scenes(plan: PourPlan) -> tuple[Scene, Scene, np.ndarray]:
@@ -103,6 +151,6 @@ def _tap(tapping: Scene, still: Scene, state: State, ws: compiled.KernelWorkspac
     compiled.set_base_motion(ws, still)
 
 
-def _max_speed(state: State) -> float:
-    """Largest sphere speed of the (single) cell, m/s."""
-    return float(np.linalg.norm(state.v[:, 0, :], axis=0).max())
+def _max_speeds(state: State) -> np.ndarray:
+    """Largest sphere speed of each cell of the batch, m/s; shape (n_batch,)."""
+    return np.linalg.norm(state.v, axis=0).max(axis=1)

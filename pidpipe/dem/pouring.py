@@ -34,6 +34,44 @@ def pour_with_engine(settings: PourSettings, fill_pct: float, replicate: int,
     return pour(settings, fill_pct, replicate, workdir)
 
 
+def pour_replicates_with_engine(settings: PourSettings, fill_pct: float, replicates,
+                                workdirs) -> list[Packing]:
+    """Several replicates of one fill, each the packing :func:`pour_with_engine` pours alone.
+
+    The DEM pours them in one batched call (:func:`pidpipe.dem.pour.pour_replicates`, one
+    process's start-up for all of them); LIGGGHTS pours one run after another (each run is a
+    process of its own).
+
+    Parameters
+    ----------
+    settings : PourSettings
+    fill_pct : float
+        Fill fraction, percent.
+    replicates : sequence of int
+        Replicate indices (seeds ``fidelity.seed`` + replicate).
+    workdirs : sequence of path
+        One engine folder per replicate (LIGGGHTS' files; unused by the DEM).
+
+    Returns
+    -------
+    list of Packing
+        In the order of ``replicates``.
+
+    Raises
+    ------
+    ConfigError
+        The engine is not one of :data:`~pidpipe.config.settings.POUR_ENGINES`.
+    """
+    replicates, workdirs = [int(k) for k in replicates], list(workdirs)
+    if len(workdirs) != len(replicates):
+        raise ValueError(f"{len(replicates)} replicates but {len(workdirs)} work folders")
+    if settings.pouring.engine == "dem":
+        from pidpipe.dem.pour import pour_replicates
+        return pour_replicates(settings, fill_pct, replicates)
+    return [pour_with_engine(settings, fill_pct, k, workdir)
+            for k, workdir in zip(replicates, workdirs)]
+
+
 def replicate_packings(settings: PourSettings, fill_pct: float, replicates: int, folder: str | Path,
                        workers: int = 1) -> tuple[list[Packing], dict[int, float]]:
     """The packings of replicates 0 .. replicates-1 of a fill, poured as the campaign pours them.

@@ -18,7 +18,7 @@ from pidpipe.design.bootstrap import (
     has_sem,
     loo_rel_error,
 )
-from pidpipe.design.designs import Search, optimise_designs
+from pidpipe.design.designs import DESIGN_KINDS, Search, optimise_design, optimise_designs
 from pidpipe.design.optimisation import Budget, Environment, OptimisationResult
 from pidpipe.design.surrogate import Surrogate
 
@@ -46,15 +46,16 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
     search : Search
     bootstrap : Bootstrap
     workers : int
-        Processes the bootstrap's draws are shared among (the same draws for any number).
+        Processes the work is shared among: the designs and the leave-one-out error, then the
+        bootstrap's draws (forked; each design and draw is computed as alone, so the results are
+        the same for any number).
 
     Returns
     -------
     Optimum
         ``note`` says why there are no intervals, if there are none ('' otherwise).
     """
-    results = optimise_designs(surrogate, environments, budget, search)
-    loo = loo_rel_error(surrogate)
+    results, loo = _designs_and_loo(surrogate, environments, budget, search, workers)
     draws = pd.DataFrame(columns=list(DRAW_COLUMNS))
     note = ""
     if bootstrap.draws == 0:
@@ -71,3 +72,41 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
             res.uncertainty = {"draws": 0, "used": 0,
                                "surrogate_loo_rel_error": loo if math.isfinite(loo) else None}
     return Optimum(results=results, draws=draws, note=note)
+
+
+def _designs_and_loo(surrogate: Surrogate, environments: list[Environment], budget: Budget,
+                     search: Search, workers: int) -> tuple[list[OptimisationResult], float]:
+    """:func:`~pidpipe.design.designs.optimise_designs` and :func:`~pidpipe.design.bootstrap.loo_rel_error`,
+    shared among ``workers`` forked processes: the leave-one-out error first, then the designs,
+    each one task (independent of the others, so each result is the one computed alone)."""
+    if workers <= 1:
+        return optimise_designs(surrogate, environments, budget, search), loo_rel_error(surrogate)
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    tasks = [(env, kind) for env in environments for kind in DESIGN_KINDS]
+    with ProcessPoolExecutor(max_workers=int(workers), initializer=_share,
+                             initargs=((surrogate, budget, search),),
+                             mp_context=multiprocessing.get_context("fork")) as pool:
+        loo = pool.submit(_loo)
+        results = list(pool.map(_design, tasks))
+        return results, loo.result()
+
+
+_PANEL: tuple = ()
+"""The surrogate, budget and search of the running panel (set in each worker by :func:`_share`)."""
+
+
+def _share(panel: tuple) -> None:
+    global _PANEL
+    _PANEL = panel
+
+
+def _loo() -> float:
+    return loo_rel_error(_PANEL[0])
+
+
+def _design(task: tuple) -> OptimisationResult:
+    surrogate, budget, search = _PANEL
+    environment, kind = task
+    return optimise_design(surrogate, environment, budget, kind, search)

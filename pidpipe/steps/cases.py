@@ -55,38 +55,71 @@ def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
 
     A packing already in ``folder`` with the settings' seed, sphere count and pour engine is
     reused (:func:`pidpipe.cell.packing.reusable`); else it is poured with
-    ``fidelity.pour_engine`` (:func:`pidpipe.dem.pouring.pour_with_engine`, seed
-    ``fidelity.seed`` + index) and saved
-    atomically. A lock file per packing lets concurrent cases of the same fill pour it once;
-    the same seed gives the same packing, so which case pours it changes nothing.
+    ``fidelity.pour_engine`` (seed ``fidelity.seed`` + index) and saved atomically. A lock file
+    per packing lets concurrent cases of the same fill pour it once; the same seed gives the
+    same packing, so which case pours it changes nothing.
+
+    The packings whose locks are free are taken together, and those of them that are missing
+    are poured in one call (:func:`pidpipe.dem.pouring.pour_replicates_with_engine`: the DEM
+    pours them as one batch, each the packing it pours alone); a packing whose lock another
+    case holds is waited for afterwards, then read (or poured, should that case have failed).
 
     Returns
     -------
     list of Packing
+        In the order of ``indices``.
     """
     import fcntl
-
-    from pidpipe.cell.packing import load_packing, reusable, save_packing
-    from pidpipe.dem.pouring import pour_with_engine
+    from contextlib import ExitStack
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+
+    def lock_file(index: int) -> Path:
+        return folder / f".{pool_packing_path(folder, fill_pct, index).stem}.lock"
+
+    found, mine, busy = {}, [], []
+    with ExitStack() as held:
+        for index in indices:
+            lock = held.enter_context(open(lock_file(index), "w"))
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                busy.append(index)
+            else:
+                mine.append(index)
+        found.update(_pool_pour(settings, fill_pct, mine, folder))
+    for index in busy:
+        with open(lock_file(index), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            found.update(_pool_pour(settings, fill_pct, [index], folder))
+    return [found[index] for index in indices]
+
+
+def _pool_pour(settings: PourSettings, fill_pct: float, indices: list[int], folder: Path) -> dict:
+    """Packings ``indices`` of the pool, their locks held: each read if reusable, the others
+    poured in one call and saved; {index: Packing}."""
+    from pidpipe.cell.packing import load_packing, reusable, save_packing
+    from pidpipe.dem.pouring import pour_replicates_with_engine
+
     wanted, seed = settings.fill.spheres(fill_pct), settings.pouring.seed
-    packings = []
+    out = {}
     for index in indices:
         path = pool_packing_path(folder, fill_pct, index)
-        name = path.stem
-        with open(folder / f".{name}.lock", "w") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            packing = load_packing(path) if path.is_file() else None
-            if packing is None or not reusable(packing, seed + index, wanted,
-                                               settings.pouring.engine):
-                packing = pour_with_engine(settings, fill_pct, index, folder / "work" / name)
-                save_packing(packing, path)
-                logger.info("poured packing %s for a case's target with %s: %d spheres, seed %d",
-                            name, packing.pour_engine, packing.n_spheres, packing.seed)
-        packings.append(packing)
-    return packings
+        packing = load_packing(path) if path.is_file() else None
+        ok = packing is not None and reusable(packing, seed + index, wanted, settings.pouring.engine)
+        out[index] = packing if ok else None
+    missing = [index for index in indices if out[index] is None]
+    if missing:
+        names = [pool_packing_path(folder, fill_pct, index).stem for index in missing]
+        poured = pour_replicates_with_engine(settings, fill_pct, missing,
+                                             [folder / "work" / name for name in names])
+        for index, name, packing in zip(missing, names, poured):
+            save_packing(packing, pool_packing_path(folder, fill_pct, index))
+            logger.info("poured packing %s for a case's target with %s: %d spheres, seed %d",
+                        name, packing.pour_engine, packing.n_spheres, packing.seed)
+            out[index] = packing
+    return out
 
 
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,

@@ -1,4 +1,4 @@
-"""The packing stage's steps: pour one packing, then check every packing before any case is shaken.
+"""The packing stage's steps: pour one packing (or several of one fill), then check every packing before any case is shaken.
 """
 
 from __future__ import annotations
@@ -21,18 +21,42 @@ def pour_packing(config: dict, fill_pct: float, replicate: int, packing_path: st
     A packing that does not fit is saved as well: :func:`check_packings` refuses it, with every
     other one that does not fit, in one message.
     """
-    from pidpipe.cell.packing import save_packing
-    from pidpipe.dem.pouring import pour_with_engine
+    pour_packings(config, fill_pct, [replicate], [packing_path], [workdir])
 
-    fill_pct, replicate = float(fill_pct), int(replicate)
-    packing = pour_with_engine(PourSettings.from_config(config), fill_pct, replicate, workdir)
-    Path(packing_path).parent.mkdir(parents=True, exist_ok=True)
-    save_packing(packing, packing_path)
-    logger.info("packing r=%g %% replicate %d, poured by %s: %d spheres, seed %d, pile %.2f mm "
-                "(lid %.2f mm), fastest sphere %.2g m/s; engine files (LIGGGHTS) in %s", fill_pct,
-                replicate, packing.pour_engine, packing.n_spheres, packing.seed,
-                packing.pile_height_m * 1e3, packing.lid_height_m * 1e3, packing.max_speed_m_s,
-                workdir)
+
+def pour_packings(config: dict, fill_pct: float, replicates: list[int], packing_paths: list[str],
+                  workdirs: list[str]) -> None:
+    """Pour several replicates of one fill level in this process and save each (JSON), each the
+    packing :func:`pour_packing` saves alone (the DEM pours them as one batch:
+    :func:`pidpipe.dem.pouring.pour_replicates_with_engine`).
+
+    Parameters
+    ----------
+    config : dict
+        The packing stage's part of the config.
+    fill_pct : float
+        Fill fraction, percent.
+    replicates : list of int
+        Replicate (packing) indices.
+    packing_paths, workdirs : list of path
+        The file of each packing and its engine folder (LIGGGHTS' files), in the same order.
+    """
+    from pidpipe.cell.packing import save_packing
+    from pidpipe.dem.pouring import pour_replicates_with_engine
+
+    replicates = [int(k) for k in replicates]
+    if len(packing_paths) != len(replicates):
+        raise ValueError(f"{len(replicates)} replicates but {len(packing_paths)} packing files")
+    packings = pour_replicates_with_engine(PourSettings.from_config(config), float(fill_pct),
+                                           replicates, workdirs)
+    for replicate, packing, path, workdir in zip(replicates, packings, packing_paths, workdirs):
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        save_packing(packing, path)
+        logger.info("packing r=%g %% replicate %d, poured by %s: %d spheres, seed %d, pile %.2f mm "
+                    "(lid %.2f mm), fastest sphere %.2g m/s; engine files (LIGGGHTS) in %s",
+                    packing.fill_pct, replicate, packing.pour_engine, packing.n_spheres,
+                    packing.seed, packing.pile_height_m * 1e3, packing.lid_height_m * 1e3,
+                    packing.max_speed_m_s, workdir)
 
 
 def check_packings(packing_paths: list[str], case_ids: list[str], report_path: str,

@@ -83,6 +83,23 @@ def dem_batch_constraint(config: dict) -> str:
     return WILDCARD_NUMBER if config["engine"] == "dem" else NEVER_MATCHES
 
 
+def pour_batch_constraint(config: dict) -> str:
+    """Wildcard constraint of ``pour_dem_packings``' fill: the grid's fills with
+    ``fidelity.pour_engine: dem``; with LIGGGHTS one that matches nothing, so that every packing
+    is a ``pour_packing`` job of its own (each LIGGGHTS pour is a process of its own anyway)."""
+    import re
+
+    if config["fidelity"]["pour_engine"] != "dem":
+        return NEVER_MATCHES
+    return "(?:" + "|".join(re.escape(fill) for fill in dem_batch_fills(config)) + ")"
+
+
+def pour_batch_replicates(config: dict) -> list[int]:
+    """The packing indices of one grid fill that the campaign's cases shake (the same for every
+    fill: ``grid.replicates`` x ``fidelity.cells_per_run``), which one ``pour_dem_packings`` job pours."""
+    return sorted({int(packing_id.rsplit("_rep", 1)[1]) for packing_id in campaign_packing_ids(config)})
+
+
 def dem_batch_case_ids(config: dict, freq: str, accel: str, replicate: str) -> list[str]:
     """The cases of one ``simulate_dem_cases`` job: every fill at one frequency, acceleration and
     replicate (the wildcards' text), in :func:`dem_batch_fills`' order."""

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pidpipe.cell.packing import SETTLED_SPEED_M_S, check_packing
-from pidpipe.cell.pour_protocol import plan_pour
+from pidpipe.cell.packing import MAX_FURTHER_SETTLING, SETTLED_SPEED_M_S, check_packing
+from pidpipe.cell.pour_protocol import plan_pour, settled_packing
 from pidpipe.config import load_config
 from pidpipe.config.settings import PourSettings
 from pidpipe.dem import compiled
-from pidpipe.dem.pour import pour, pour_scenes
-from pidpipe.dem.run import start
+from pidpipe.dem.pour import pour, pour_replicates, pour_scenes
+from pidpipe.dem.run import advance, start
 from pidpipe.liggghts.pour import pour as liggghts_pour
 
 GOLDEN = Path(__file__).parent.parent / "golden"
@@ -75,6 +75,44 @@ def test_the_base_motion_can_change_only_its_amplitude(settings):
     assert ws.amplitude[0] == pytest.approx(plan.tap_amplitude_m, rel=1e-12)
     with pytest.raises(ValueError, match="more than"):
         compiled.set_base_motion(ws, dataclasses.replace(tapping, timestep_s=0.5 * tapping.timestep_s))
+
+
+def _pour_alone(settings, fill, replicate):
+    """One replicate poured alone, the protocol written out step by step (one cell in every
+    kernel call, as pidpipe.dem.pour poured before it batched): the reference of the batch."""
+    plan = plan_pour(settings, fill, replicate)
+    still, tapping, shift = pour_scenes(plan)
+    scene, state, ws = start(still, plan.start_m + shift)
+    advance(scene, state, ws, plan.settle_steps)
+    compiled.set_base_motion(ws, tapping)
+    state.step = 0
+    advance(tapping, state, ws, plan.tap_steps)
+    compiled.set_base_motion(ws, scene)
+    advance(scene, state, ws, plan.settle_steps)
+    chunks = 1
+    while np.linalg.norm(state.v[:, 0, :], axis=0).max() > SETTLED_SPEED_M_S and chunks <= MAX_FURTHER_SETTLING:
+        advance(scene, state, ws, plan.settle_steps)
+        chunks += 1
+    return settled_packing(plan, state.x[:, 0, :].T - shift, state.v[:, 0, :].T, chunks, "dem")
+
+
+def test_batched_pours_are_the_single_pours_bit_for_bit(settings):
+    """At 25 % every seed's open cell is the closed cell (its highest start more than 4 radii
+    below the lid), so replicates 0-5 pour as one batch; at 50 % each seed's open cell differs
+    and they pour one by one. A settle time of 0.02 s leaves the 25 % cells settling for 2 to 5
+    periods (the cap), so each cell's own settle check inside the batch is tested too."""
+    short = dataclasses.replace(settings, pouring=dataclasses.replace(settings.pouring, settle_time_s=0.02))
+    assert len({plan_pour(short, 25, k).top_z_m for k in range(6)}) == 1
+    assert len({plan_pour(short, 50, k).top_z_m for k in (3, 1)}) == 2
+    for fill, replicates in ((25, [5, 0, 1, 2, 3, 4]), (50, [3, 1])):
+        batched = pour_replicates(short, fill, replicates)
+        alone = [_pour_alone(short, fill, k) for k in replicates]
+        assert batched == alone                      # every field, positions bit for bit
+        assert [p.seed for p in batched] == [short.pouring.seed + k for k in replicates]
+        if fill == 25:
+            chunks = {round(p.settle_time_s / plan_pour(short, 25, 0).settle_period_s) for p in batched}
+            assert min(chunks) >= 2 and max(chunks) == 1 + MAX_FURTHER_SETTLING and len(chunks) >= 3
+    assert pour(short, 50, 3) == alone[0]
 
 
 #: Seeds (replicates) and fills of the comparison with LIGGGHTS: half full and nearly full.

@@ -155,3 +155,23 @@ def test_draws_shared_among_processes_give_the_same_table():
     shared = bootstrap_designs(surrogate, [result], BUDGET, SEARCH, settings, workers=2)
     pd.testing.assert_frame_equal(alone, shared, check_exact=True)
     assert alone["ok"].all() and alone["draw"].tolist() == list(range(6))
+
+
+def test_a_panel_shared_among_processes_gives_the_same_designs_and_draws(tmp_path):
+    """optimise_panel with workers: the designs and the leave-one-out error in forked processes
+    too, each computed as alone: the files it writes are the same byte for byte."""
+    from pidpipe.design.designs import write_history_csv, write_results_csv, write_results_json
+    from pidpipe.design.optimum import optimise_panel
+
+    surrogate = fit_surrogate(noisy_table(np.random.default_rng(5)), method="tensor_spline")
+    written = {}
+    for workers in (1, 2):
+        panel = optimise_panel(surrogate, [ENV], BUDGET, SEARCH, Bootstrap(draws=4, starts=1, seed=4),
+                               workers=workers)
+        assert len(panel.results) == 3 and panel.note == ""
+        for name, write in (("designs.csv", write_results_csv), ("history.csv", write_history_csv),
+                            ("designs.json", write_results_json)):
+            write(panel.results, tmp_path / f"{workers}{name}")
+        panel.draws.to_csv(tmp_path / f"{workers}draws.csv", index=False)
+        written[workers] = {path.name[1:]: path.read_bytes() for path in tmp_path.glob(f"{workers}*")}
+    assert written[1] == written[2] and len(written[1]) == 4

@@ -64,3 +64,39 @@ def test_replicate_packings_pour_again_when_the_engine_changes(tmp_path):
     assert liggghts.pour_engine == "liggghts" and liggghts.seed == dem.seed
     assert load_packing(folder / "r25pct_rep0.json") == liggghts
     assert liggghts_cpu[0] > 0 and liggghts_cpu[0] != dem_cpu[0]
+
+
+def test_pool_pours_its_missing_packings_together_and_waits_for_one_another_case_holds(tmp_path, caplog):
+    """The pool's missing packings are poured in one call, each the packing the DEM pours
+    alone; one whose lock another case holds is waited for, then read, not poured again."""
+    import fcntl
+    import threading
+
+    from pidpipe.dem.pour import pour
+
+    settings, folder = _settings("dem"), tmp_path / "pool"
+    [kept] = pool_packings(settings, 25, [10001], folder)
+    kept_path = folder / "r25pct_rep10001.json"
+    written = kept_path.stat().st_mtime_ns
+    locked, released = threading.Event(), threading.Event()
+
+    def other_case():                   # holds packing 10001's lock, as a concurrent case would
+        with open(folder / ".r25pct_rep10001.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            locked.set()
+            threading.Event().wait(0.5)
+            released.set()
+
+    holder = threading.Thread(target=other_case)
+    holder.start()
+    locked.wait()
+    caplog.set_level("INFO", logger="pidpipe.campaign")
+    packings = pool_packings(settings, 25, [10002, 10001, 10000], folder)
+    assert released.is_set()            # it could only read 10001 after the other case let go
+    holder.join()
+    assert packings == [pour(settings, 25, 10002), kept, pour(settings, 25, 10000)]
+    assert kept_path.stat().st_mtime_ns == written
+    poured = [r.getMessage().split()[2] for r in caplog.records if r.getMessage().startswith("poured packing")]
+    assert poured == ["r25pct_rep10002", "r25pct_rep10000"]
+    for index, packing in ((10002, packings[0]), (10000, packings[2])):
+        assert load_packing(folder / f"r25pct_rep{index}.json") == packing

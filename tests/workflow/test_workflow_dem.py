@@ -64,7 +64,9 @@ def test_pouring_in_the_dem_too_repours_every_packing_and_reruns_every_case(dem_
     write_config(dem_campaign, engine="dem", fidelity={"pour_engine": "dem"})
     jobs = planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)
     # the DEM's cases of one frequency and acceleration share a job (simulate_dem_cases)
-    assert jobs.get("pour_packing") == 2 and jobs.get("simulate_dem_cases") == 4
+    # and the DEM pours the packings of one fill in one job (pour_dem_packings)
+    assert jobs.get("pour_dem_packings") == 2 and jobs.get("simulate_dem_cases") == 4
+    assert "pour_packing" not in jobs
     assert "simulate_case" not in jobs
     run = snakemake(dem_campaign)
     assert run.returncode == 0, run.stdout[-5000:]
@@ -76,4 +78,4 @@ def test_pouring_in_the_dem_too_repours_every_packing_and_reruns_every_case(dem_
     table = pd.read_csv(dem_campaign / "results" / "ceq_table.csv")
     assert len(table) == 8 and (table["pour_engine"] == "dem").all()
     assert (table["solver"] == "numba-dem").all() and (table["status"] == "ok").sum() >= 5
-    assert "pour_packing" not in planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)
+    assert "pour_dem_packings" not in planned_jobs(snakemake(dem_campaign, "--dry-run").stdout)

@@ -6,6 +6,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
                                   dem_batch_case_ids, dem_batch_constraint, dem_batch_fills,
+                                  pour_batch_constraint, pour_batch_replicates,
                                   environment_params, inspected_cases, map_uncertainty_params,
                                   optimisation_params, verify_case_config, verify_params)
 from pidpipe.steps.verify import verify_case_ids
@@ -120,6 +121,18 @@ def get_dem_batch_priority(wildcards):
     settings = ShakeSettings.from_config(stage_config(config, "case"))
     return sum(fidelity_study.planned_steps(settings, CaseSpec.from_id(case_id))
                for case_id in get_dem_batch_case_ids(wildcards)) / 1e6
+
+
+# The DEM's pours of one grid fill share a job (pour_dem_packings): one process's start-up, and
+# one batched pour. With the LIGGGHTS pour its pattern matches nothing (a job per packing).
+POUR_BATCH_FILL = pour_batch_constraint(config)
+POUR_BATCH_REPLICATES = pour_batch_replicates(config)
+
+
+def get_pour_batch_workdirs(wildcards):
+    """The engine folder of each packing of a pour_dem_packings job (unused by the DEM)."""
+    return [f"results/work/packings/r{wildcards.fill}pct_rep{replicate}"
+            for replicate in POUR_BATCH_REPLICATES]
 
 
 def get_packing_config():
