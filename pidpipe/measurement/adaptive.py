@@ -127,6 +127,7 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         return records[0]
     run_cpu_s, pour_cpu_s, *more = costs(records[0])
     extend_cpu_s = more[0] if extend is not None else None
+    runs = Runs(shake, extend, run_cpu_s, extend_cpu_s, pour_cpu_s)
     cycles = pilot_cycles
     history = [_run_entry(records[0], 0, "pilot", groups[0], run_cpu_s(len(groups[0]), cycles))]
     planned_steps = []
@@ -150,7 +151,6 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         if step is None:
             break
         planned_steps.append(step.as_record())
-        runs = Runs(shake, extend, run_cpu_s, extend_cpu_s, pour_cpu_s)
         current = _take_step(step, cycles, groups, current, runs, new_packings,
                              limits.cells_per_run, history)
         cycles = step.cycles
@@ -210,8 +210,7 @@ def _take_step(step: Step, cycles: int, groups: list[list], current: dict[int, d
         plan = [(i, groups[i]) for i in sorted(current)]
         current = {}
     elif step.kind == "more_cells" or step.continued_cells:
-        plan = ([(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(added, cells_per_run))]
-                if added else [])
+        plan = [(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(added, cells_per_run))]
     else:                                         # both: every cell, in new runs
         everything = [p for i in sorted(current) for p in groups[i]] + added
         plan = [(len(groups) + j, chunk) for j, chunk in enumerate(_chunks(everything, cells_per_run))]
