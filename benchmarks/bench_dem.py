@@ -13,9 +13,14 @@ warm-up cycles) and LIGGGHTS' own loop time, and their ratio; the compile time o
 on the first call in a fresh process with an empty Numba cache and with the cache filled.
 
 The machine is shared: the load average is printed with the figures, and CPU time is given
-next to wall time for the compiled DEM.
+next to wall time for the compiled DEM. ``--repeats R`` times every scene R times, the two
+engines alternating (DEM first in odd rounds, LIGGGHTS first in even ones, so that a drift in
+the machine's load falls on both alike); the table then gives each engine's median over the
+rounds, the ratio of the medians, and the lowest and highest ratio of one round's pair, so that
+one noisy timing neither makes nor breaks a target.
 
-Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--min-cpu 2] [--no-liggghts]
+Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--min-cpu 2] [--repeats 1]
+     [--spheres 11 19] [--cells 1 7 28] [--no-liggghts]
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import argparse
 import copy
 import math
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -143,6 +149,37 @@ def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Pat
                 cpu_particle_steps_per_s=particle_steps / cpu_seconds)
 
 
+def median_timing(timings: list[dict]) -> dict:
+    """One engine's timings of a scene over the rounds: the medians of its times and rates, the
+    steps and runs of the last round, and the number of rounds."""
+    out = dict(timings[-1], rounds=len(timings))
+    for key in ("seconds", "cpu_seconds", "particle_steps_per_s", "cpu_particle_steps_per_s"):
+        out[key] = statistics.median(t[key] for t in timings)
+    return out
+
+
+def round_ratios(dem: list[dict], lig: list[dict], key: str) -> tuple[float, float]:
+    """Lowest and highest DEM / LIGGGHTS rate ratio of one round's pair of timings."""
+    ratios = [d[key] / l[key] for d, l in zip(dem, lig)]
+    return min(ratios), max(ratios)
+
+
+def time_scene(config: dict, packing, n_cells: int, args, workdir: Path) -> tuple[list, list | None]:
+    """``args.repeats`` rounds of both engines on one scene, alternating which goes first."""
+    dem, lig = [], []
+    for round_ in range(args.repeats):
+        order = ("dem", "liggghts") if round_ % 2 == 0 else ("liggghts", "dem")
+        for engine in order:
+            if engine == "dem":
+                dem.append(time_dem(config, packing.centres(), n_cells, args.cycles, args.min_cpu))
+            elif not args.no_liggghts:
+                lig.append(time_liggghts(
+                    config, packing, n_cells,
+                    liggghts_cycles(config, packing.n_spheres, n_cells, args.cycles, args.min_cpu),
+                    workdir / f"round{round_}"))
+    return dem, (None if args.no_liggghts else lig)
+
+
 def runs_note(runs: int) -> str:
     """`` (2 runs)`` when LIGGGHTS' cells were split over several runs."""
     return "" if runs == 1 else f" ({runs} runs)"
@@ -153,8 +190,16 @@ def main() -> None:
     parser.add_argument("--cycles", type=int, default=4, help="timed cycles per scene")
     parser.add_argument("--min-cpu", type=float, default=0.0,
                         help="least CPU seconds of each engine's timed cycles (more cycles)")
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="rounds of both engines per scene, alternating (medians reported)")
+    parser.add_argument("--spheres", type=int, nargs="+", default=list(FILLS), choices=list(FILLS),
+                        help="packing sizes to time")
+    parser.add_argument("--cells", type=int, nargs="+", default=list(CELLS),
+                        help="cells per scene to time")
     parser.add_argument("--no-liggghts", action="store_true", help="time the compiled DEM only")
     args = parser.parse_args()
+    if args.repeats < 1 or min(args.cells) < 1:
+        parser.error("--repeats and --cells must be at least 1")
     from pidpipe.liggghts.pour import pour
 
     config = load_config()
@@ -163,23 +208,21 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)
         pouring = PourSettings.from_config(config)
-        packings = {n: pour(pouring, fill, 0, scratch / f"pour{n}") for n, fill in FILLS.items()}
+        packings = {n: pour(pouring, FILLS[n], 0, scratch / f"pour{n}") for n in args.spheres}
         for n, packing in packings.items():
             assert packing.n_spheres == n, (n, packing.n_spheres)
         csv = scratch / "packing11.csv"
-        np.savetxt(csv, packings[11].centres(), delimiter=",")
+        np.savetxt(csv, packings[min(packings)].centres(), delimiter=",")
         compiled = compile_times(csv)
         rows = []
         for n, packing in packings.items():
-            for k in CELLS:
-                dem = time_dem(config, packing.centres(), k, args.cycles, args.min_cpu)
-                lig = None if args.no_liggghts else time_liggghts(
-                    config, packing, k, liggghts_cycles(config, n, k, args.cycles, args.min_cpu),
-                    scratch / f"shake{n}_{k}")
+            for k in args.cells:
+                dem, lig = time_scene(config, packing, k, args, scratch / f"shake{n}_{k}")
                 rows.append((n, k, dem, lig))
                 print(n, k, dem, lig, flush=True)
     lines.append(f"Scene: 500 Hz, 5 g, default fidelity, at least {args.cycles} timed cycles "
-                 f"and {args.min_cpu:g} CPU s per timing (steps columns: each engine's); packings "
+                 f"and {args.min_cpu:g} CPU s per timing (steps columns: each engine's), "
+                 f"{args.repeats} round(s) per scene; packings "
                  "poured by LIGGGHTS (seed fidelity.seed), one per size, repeated in every cell. "
                  f"Load average {load_start:.2f} at the start, {os.getloadavg()[0]:.2f} at the "
                  f"end, on {os.cpu_count()} cores.")
@@ -188,24 +231,38 @@ def main() -> None:
               "the mesh and the set-up run, so the CPU ratio favours the DEM a little).", "",
               "| spheres | cells | DEM steps | DEM wall s | DEM CPU s | DEM ns per particle-step "
               "(wall / CPU) | LIGGGHTS steps | LIGGGHTS loop s | LIGGGHTS CPU s | LIGGGHTS ns "
-              "per particle-step (loop / CPU) | DEM / LIGGGHTS, wall | DEM / LIGGGHTS, CPU |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for n, k, dem, lig in rows:
+              "per particle-step (loop / CPU) | DEM / LIGGGHTS, wall | DEM / LIGGGHTS, CPU |"
+              + (" CPU ratio, lowest-highest round |" if args.repeats > 1 else ""),
+              "|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if args.repeats > 1 else "")]
+    if args.repeats > 1:
+        lines[-3:-3] = ["", f"Times, rates and ratios: medians over the {args.repeats} rounds; "
+                        "the last column: the lowest and highest ratio of one round's pair."]
+    for n, k, dems, ligs in rows:
+        dem = median_timing(dems)
+        lig = None if ligs is None else median_timing(ligs)
         lig_cols = ("- | - | - | - | - | -" if lig is None else
                     f"{lig['steps']}{runs_note(lig['runs'])} | {lig['seconds']:.2f} | "
                     f"{lig['cpu_seconds']:.2f} | {1e9 / lig['particle_steps_per_s']:.0f} / "
                     f"{1e9 / lig['cpu_particle_steps_per_s']:.0f} | "
                     f"{dem['particle_steps_per_s'] / lig['particle_steps_per_s']:.1f}x | "
                     f"{dem['cpu_particle_steps_per_s'] / lig['cpu_particle_steps_per_s']:.1f}x")
+        spread = ""
+        if args.repeats > 1:
+            spread = (" - |" if ligs is None else
+                      " {:.1f}-{:.1f}x |".format(*round_ratios(dems, ligs, "cpu_particle_steps_per_s")))
         lines.append(f"| {n} | {k} | {dem['steps']} | {dem['seconds']:.3f} | "
                      f"{dem['cpu_seconds']:.3f} | {1e9 / dem['particle_steps_per_s']:.0f} / "
-                     f"{1e9 / dem['cpu_particle_steps_per_s']:.0f} | {lig_cols} |")
+                     f"{1e9 / dem['cpu_particle_steps_per_s']:.0f} | {lig_cols} |{spread}")
     lines += ["", "Compiled kernel, first call in a fresh process (import of pidpipe.dem, then "
               "start + one step of one cell of 11 spheres):"]
     for label, (imported, first_call) in compiled.items():
         lines.append(f"- {label}: import {imported:.2f} s, first call {first_call:.2f} s")
     append("Compiled DEM against LIGGGHTS", "python benchmarks/bench_dem.py"
-           + f" --cycles {args.cycles} --min-cpu {args.min_cpu:g}" + (" --no-liggghts" if args.no_liggghts else ""), lines)
+           + f" --cycles {args.cycles} --min-cpu {args.min_cpu:g}"
+           + (f" --repeats {args.repeats}" if args.repeats > 1 else "")
+           + ("" if args.spheres == list(FILLS) else " --spheres " + " ".join(map(str, args.spheres)))
+           + ("" if args.cells == list(CELLS) else " --cells " + " ".join(map(str, args.cells)))
+           + (" --no-liggghts" if args.no_liggghts else ""), lines)
 
 
 if __name__ == "__main__":
