@@ -57,6 +57,25 @@ def run(campaign: Path, out: Path, path: str | None) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
+def compare_optima(before: Path, this: Path) -> list[str]:
+    """Bullet lines: per design, the whole-cell design of each, and the largest relative change
+    of the continuous optimum's objective and of the bootstrap interval's ends."""
+    import pandas as pd
+
+    old, new = pd.read_csv(before), pd.read_csv(this)
+    out = []
+    for (_, a), (_, b) in zip(old.iterrows(), new.iterrows()):
+        changes = {column: abs(b[column] - a[column]) / max(abs(a[column]), 1e-300)
+                   for column in ("continuous_total_ceq_ns_m", "total_ceq_ns_m_lo", "total_ceq_ns_m_hi",
+                                  "fill_pct_lo", "fill_pct_hi")}
+        same_design = (a["n_cells"], a["fill_pct"]) == (b["n_cells"], b["fill_pct"])
+        out.append(f"- {a['environment']}, {a['design']}: n_c {a['n_cells']} / {b['n_cells']}, r "
+                   f"{a['fill_pct']:.4g} / {b['fill_pct']:.4g} % ({'same' if same_design else 'DIFFERENT'} "
+                   "whole-cell design); relative change: " + ", ".join(f"{k} {v:.1e}" for k, v in changes.items())
+                   + f"; bootstrap wins: {a['optimum_wins']} / {b['optimum_wins']}")
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("campaign", type=Path, help="a finished campaign folder (config.yaml, results/surrogate.json)")
@@ -79,6 +98,8 @@ def main() -> None:
             times["this"].append(run(campaign, scratch / "out_this", None))
         same = all((scratch / "out_base" / name).read_bytes() == (scratch / "out_this" / name).read_bytes()
                    for name in FILES)
+        differences = [] if same else compare_optima(scratch / "out_base" / "optimum.csv",
+                                                     scratch / "out_this" / "optimum.csv")
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True,
                           text=True).stdout.strip()
     lines = ([f"Note: {args.note}", ""] if args.note else []) + [
@@ -94,6 +115,8 @@ def main() -> None:
     ratio_c = statistics.median(t["cpu"] for t in times["this"]) / statistics.median(t["cpu"] for t in times["base"])
     lines += ["", f"This / before: wall {ratio_w:.2f}, CPU {ratio_c:.2f}. Files ({', '.join(FILES)}) identical "
               f"byte for byte: {'yes' if same else 'NO'}."]
+    if differences:
+        lines += ["", "Where the designs differ (optimum.csv, this against before):", *differences]
     append("optimise_environments: this code against an older commit", "python benchmarks/bench_optimise.py "
            + " ".join(sys.argv[1:]), lines)
 

@@ -35,6 +35,7 @@ from pidpipe.design.optimisation import (
     OptimisationResult,
     environment_bounds,
     feasible_fill_range,
+    forward_difference_jacobian,
     make_design,
     run_starts,
     whole_cell_candidates,
@@ -193,6 +194,16 @@ class _BandProblem:
         values = self.model.predict(f, g, np.full_like(f, fill_pct))
         return np.asarray(values, dtype=float) / self.budget.n_cells_coupon * n_cells
 
+    def band_totals_at(self, zs: np.ndarray) -> np.ndarray:
+        """:meth:`band_totals` at the fill (and its n_c) of each row of ``zs``, in one
+        prediction; shape (m, n*n), N*s/m."""
+        fills = self.to_x(zs)[:, 0]
+        f, g = self.nodes[0], self.nodes[1]
+        values = np.asarray(self.model.predict(np.tile(f, fills.size), np.tile(g, fills.size),
+                                               np.repeat(fills, f.size)), dtype=float)
+        n_cells = self.budget.n_spheres / self.budget.spheres_per_cell(fills)
+        return values.reshape(fills.size, f.size) / self.budget.n_cells_coupon * n_cells[:, None]
+
     def objective_at(self, fill_pct: float, n_cells: float) -> float:
         """The band mean, or the band minimum, of n_c cells at fill r, N*s/m."""
         totals = self.band_totals(fill_pct, n_cells)
@@ -209,6 +220,17 @@ class _BandProblem:
         value = x[1] if self.kind == "worst_case" else self.total_ceq(x)
         return -value / self.scale
 
+    def objective_gradient(self, z: np.ndarray) -> np.ndarray:
+        """d objective / dz: exact for worst_case (-t / scale), forward differences of the
+        band mean (:func:`~pidpipe.design.optimisation.forward_difference_jacobian`)."""
+        if self.kind == "worst_case":
+            return np.where(self.fixed, 0.0, np.array([0.0, -self.span[1] / self.scale]))
+
+        def objectives(zs):
+            return -np.sum(self.nodes[2] * self.band_totals_at(zs), axis=1) / self.scale
+
+        return forward_difference_jacobian(objectives, z, self.fixed)
+
     def budget_residual(self, x: np.ndarray) -> float:
         return float(self.budget.spheres_per_cell(x[0])) * self.n_cells(x[0]) - self.budget.n_spheres
 
@@ -221,7 +243,15 @@ class _BandProblem:
             x = self.to_x(z)
             return (self.band_totals(x[0], self.n_cells(x[0])) - x[1]) / self.scale
 
-        return [{"type": "ineq", "fun": margin}]
+        def margin_jacobian(z: np.ndarray) -> np.ndarray:
+            # d/dr by forward differences of the totals; d/dt = -span_t / scale exactly
+            jac = forward_difference_jacobian(lambda zs: self.band_totals_at(zs) / self.scale,
+                                              z, self.fixed, columns=[0])
+            if not self.fixed[1]:
+                jac[:, 1] = -self.span[1] / self.scale
+            return jac
+
+        return [{"type": "ineq", "fun": margin, "jac": margin_jacobian}]
 
     def start(self, fill_pct: float) -> np.ndarray:
         """The start at fill r (and, for worst_case, t = the band minimum there)."""

@@ -145,3 +145,27 @@ def test_quadrature_is_exact_for_a_cubic_and_the_grid_has_the_corners():
         BandRule(quadrature_points=1)
     with pytest.raises(ConfigError, match="unknown"):
         optimise_band_design(Shifting(), ENV, BUDGET, "average")
+
+
+@pytest.mark.parametrize("kind", ["band_mean", "worst_case"])
+def test_band_gradients_match_finite_differences_of_the_problem(kind):
+    from pidpipe.design.band import _BandProblem
+    from pidpipe.design.optimisation import environment_bounds
+    from tests.design.test_optimisation import central_difference
+
+    model = Shifting()
+    bounds, _ = environment_bounds(model, ENV, BUDGET)
+    problem = _BandProblem(model, bounds, BUDGET, kind, BandRule())
+    problem.set_scale(0.8)
+    z = np.array([0.35, 0.1])[:len(problem.variables)]
+    x = problem.to_x(z)
+    np.testing.assert_array_equal(problem.band_totals_at(z[None, :])[0],
+                                  problem.band_totals(x[0], problem.n_cells(x[0])))
+    reference = central_difference(problem.objective, z)
+    np.testing.assert_allclose(problem.objective_gradient(z), reference,
+                               rtol=1e-6, atol=1e-7 * np.abs(reference).max())
+    for constraint in problem.constraints():
+        reference = central_difference(constraint["fun"], z)
+        np.testing.assert_allclose(constraint["jac"](z), reference,
+                                   rtol=1e-6, atol=1e-7 * np.abs(reference).max())
+    assert (len(problem.constraints()) == 1) == (kind == "worst_case")

@@ -109,7 +109,10 @@ def test_distinct_local_optima_are_reported_and_the_global_one_wins():
         assert run.history_ns_m[0] == pytest.approx(best_total(model, run.start["fill_pct"],
                                                                f=run.start["freq_hz"], g=run.start["accel_g"]))
         assert run.history_ns_m[-1] == pytest.approx(run.objective_ns_m, rel=1e-6)
-        assert len(run.history_ns_m) == run.n_iterations + 1
+        # one entry per iteration SciPy calls back after; SciPy 1.17's SLSQP may count two
+        # iterations in its last call (traced: iter 9 -> 11 with exit mode 0), so nit can be
+        # one more than the callbacks
+        assert run.n_iterations <= len(run.history_ns_m) <= run.n_iterations + 1
 
 
 def test_cell_count_bound_is_respected_when_it_binds():
@@ -184,3 +187,60 @@ def test_end_to_end_with_a_fitted_surrogate_and_written_results(tmp_path):
     assert document[1]["design"]["n_cells"] == results[1].design.n_cells
     assert len(document[0]["starts"]) == 6
     assert results_frame(results)["total_ceq_ns_m"].gt(0).all()
+
+
+# The gradients SLSQP is given: one batched forward difference and an exact budget gradient
+
+
+def central_difference(fun, z, h=1e-6):
+    """A reference derivative of fun (scalar or vector valued) at an interior z: second order."""
+    columns = []
+    for j in range(z.size):
+        step = np.zeros_like(z)
+        step[j] = h
+        columns.append((np.asarray(fun(z + step)) - np.asarray(fun(z - step))) / (2 * h))
+    return np.stack(columns, axis=-1)
+
+
+def test_forward_difference_steps_like_scipy_backwards_at_the_bound_and_skips_fixed_variables():
+    from pidpipe.design.optimisation import FD_RELATIVE_STEP, forward_difference_jacobian
+
+    def values(zs):
+        zs = np.atleast_2d(zs)
+        return np.column_stack([np.sin(3 * zs[:, 0]) * zs[:, 1], zs[:, 0] ** 2 + np.exp(zs[:, 2])])
+
+    calls = []
+
+    def counted(zs):
+        calls.append(len(zs))
+        return values(zs)
+
+    z = np.array([0.3, 1.0, 0.0])                 # z_1 at its upper bound: a backward step
+    jac = forward_difference_jacobian(counted, z, np.array([False, False, True]))
+    assert calls == [3]                             # z and one step per free variable, one call
+    h = FD_RELATIVE_STEP
+    for j, step in ((0, h), (1, -h)):               # point by point, as SciPy steps
+        moved = z.copy()
+        moved[j] = z[j] + step
+        expected = (values(moved)[0] - values(z)[0]) / (moved[j] - z[j])
+        np.testing.assert_array_equal(jac[:, j], expected)
+    assert np.all(jac[:, 2] == 0.0)                 # fixed: not stepped
+    exact = np.array([[3 * np.cos(0.9) * 1.0, np.sin(0.9)], [0.6, 0.0]])
+    np.testing.assert_allclose(jac[:, :2], exact, rtol=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("z", [np.array([0.2, 0.7, 0.4, 0.5]), np.array([0.9, 0.1, 0.6, 0.3])])
+def test_objective_and_budget_gradients_match_finite_differences_of_the_problem(z):
+    from pidpipe.design.optimisation import _Problem, environment_bounds
+
+    model = Analytic(two_peaks)
+    bounds, _ = environment_bounds(model, ENV, BUDGET)
+    problem = _Problem(model, bounds, BUDGET)
+    problem.scale = 0.37
+    assert problem.objectives(z[None, :])[0] == problem.objective(z)
+    reference = central_difference(problem.objective, z)
+    np.testing.assert_allclose(problem.objective_gradient(z), reference,
+                               rtol=1e-6, atol=1e-7 * np.abs(reference).max())
+    reference = central_difference(problem.constraint, z)
+    np.testing.assert_allclose(problem.constraint_gradient(z), reference,
+                               rtol=1e-8, atol=1e-10 * np.abs(reference).max())
