@@ -26,8 +26,10 @@ With ``--cost --engine dem`` it fits the compiled DEM's cost model instead (entr
 same fills and frequencies with k = 1, 2, 4, 7, 14, 28 (:data:`DEM_COST_RUNS`; the DEM runs any
 number of cells as one batch), each run's CPU time the DEM case's own (``run_dem_case``: set-up,
 kernel, ledgers and record, the motion sampling included), each the smaller of
-:data:`DEM_REPETITIONS` repetitions (the runs take 0.1-3 s); the pours are LIGGGHTS' (the DEM
-shakes LIGGGHTS' packings), timed as for the LIGGGHTS model.
+:data:`DEM_REPETITIONS` repetitions (the runs take 0.1-3 s); the packings are the DEM's own
+pours (``fidelity.pour_engine: dem``), timed as for the LIGGGHTS model, so that the entry's
+pour term is what a DEM pour costs: the allocation prices a case's new packing with the pour
+engine's entry.
 
 Run: .venv/bin/python benchmarks/bench_cells.py --cost --engine dem [packings folder]
 """
@@ -75,6 +77,8 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> Non
     config = load_config()
     if engine == "dem":
         from pidpipe.dem.case import run_dem_case
+
+        config["fidelity"]["pour_engine"] = "dem"     # the entry's pour term: a DEM pour's
 
         def cpu_of_run(case, packings, workdir):
             run_dem_case(ShakeSettings.from_config(config), case, packings)      # compiled

@@ -330,8 +330,8 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
                   new_packings: Callable[[int, int], list] | None = None,
                   cost_model=None, steps_per_cycle: int | None = None,
                   transient_cycles: int | None = None,
-                  start: Callable[[ShakeSettings, object, list, Path], object] | None = None
-                  ) -> dict:
+                  start: Callable[[ShakeSettings, object, list, Path], object] | None = None,
+                  pour_model=None) -> dict:
     """A case measured to ``sampling.target_relative_sem`` with ``run`` (:func:`measure_to_target`).
 
     Parameters
@@ -353,6 +353,9 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
     cost_model : CostModel, optional
         The engine's (:func:`pidpipe.measurement.cost_model.load_cost_model`); None: scaled from
         the pilot (:func:`pidpipe.measurement.cost_model.scaled_from_pilot`).
+    pour_model : CostModel, optional
+        The pour engine's, whose pour term prices a new packing (the DEM pours a packing several
+        times cheaper than LIGGGHTS); None: ``cost_model``'s own pour term.
     steps_per_cycle, transient_cycles : int, optional
         Of the case's runs (the cost model counts time steps); by default the case's own, from
         its scene's timestep and its sampling.
@@ -399,7 +402,7 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
             "pilot", run_cpu_time_s(pilot_record), len(pilot), n_spheres,
             steps_per_cycle * (transient_cycles + sampling.measured_cycles))
         return ((lambda k, n: model.run_cpu_s(k, n_spheres, steps_per_cycle * (transient_cycles + n))),
-                model.pour_cpu_s(n_spheres),
+                (pour_model or model).pour_cpu_s(n_spheres),
                 (lambda k, n, n_new: model.run_cpu_s(k, n_spheres, steps_per_cycle * (n_new - n))))
 
     limits = Limits(max_cells=sampling.max_cells_per_case if new_packings is not None else len(pilot),

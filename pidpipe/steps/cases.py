@@ -301,6 +301,8 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
             return pool_packings(pour_settings, case.fill_pct, indices, packing_pool)
     return run_to_target(settings, case, packings, workdir, run=shake, new_packings=new_packings,
                          cost_model=load_cost_model(settings.engine),
+                         pour_model=(load_cost_model(pour_settings.pouring.engine)
+                                     if new_packings is not None else None),
                          steps_per_cycle=plan.steps_per_cycle,
                          transient_cycles=settings.sampling.transient_cycles_at(case.freq_hz),
                          start=case_starter(settings) if continue_runs else None)

@@ -252,3 +252,27 @@ def test_both_continues_the_old_runs_and_shakes_the_new_cells_in_new_runs():
     seeds = [seed for entry in target["runs"] if not entry["continued"] for seed in entry["seeds"]]
     assert sorted(seeds) == sorted(record["fidelity"]["seeds"]) and len(set(seeds)) == target["cells"]
     assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record["cells"])
+
+
+def test_a_new_packing_is_priced_at_the_pour_engines_cost(monkeypatch, tmp_path):
+    """The shake engine's model prices the runs; the pour engine's, when given, the new packings
+    (the DEM pours a packing several times cheaper than LIGGGHTS)."""
+    from pidpipe.cases import CaseSpec
+    from pidpipe.config.settings import ShakeSettings
+    from pidpipe.measurement import adaptive
+    from tests.conftest import short_config
+
+    handed = []
+    monkeypatch.setattr(adaptive, "measure_to_target", lambda *args: handed.append(args[6]) or {})
+    shake_model = dataclasses.replace(MODEL, pour_overhead_s=5.0, pour_per_sphere_s=0.1)
+    pour_model = dataclasses.replace(MODEL, pour_overhead_s=0.3, pour_per_sphere_s=0.02)
+    settings = ShakeSettings.from_config(short_config())
+    for given in (pour_model, None):
+        adaptive.run_to_target(settings, CaseSpec(F_HZ, G, 50), [FakePacking(1)], tmp_path,
+                               run=lambda *args: {}, new_packings=packings_from(10),
+                               cost_model=shake_model, pour_model=given, steps_per_cycle=1000,
+                               transient_cycles=TRANSIENT)
+    priced = [costs({"n_spheres": 11}) for costs in handed]
+    assert priced[0][1] == pytest.approx(0.3 + 0.02 * 11)
+    assert priced[1][1] == pytest.approx(5.0 + 0.1 * 11)
+    assert priced[0][0](7, 40) == priced[1][0](7, 40) == shake_model.run_cpu_s(7, 11, 1000 * (TRANSIENT + 40))
