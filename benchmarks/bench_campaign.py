@@ -108,7 +108,12 @@ def main() -> None:
     lines.append(f"CPU of Snakemake and every job (all processes) {cpu:.0f} s, i.e. {cpu / args.cores:.0f} s on "
                  f"{args.cores} busy cores; load average (1, 5, 15 min) before {' '.join(load_before)}, "
                  f"after {' '.join(load_after)} (other sessions share the cores).")
-    append("Whole campaign", f"python benchmarks/bench_campaign.py {Path(args.config).name}", lines)
+    options = [f"--set {item}" for item in args.set] + (
+        [f"--cores {args.cores}"] if args.cores != 2 else []) + (
+        [f"--workdir {args.workdir}"] if args.workdir else []) + (
+        [f"--keep {args.keep}"] if args.keep else [])
+    append("Whole campaign", " ".join(["python benchmarks/bench_campaign.py", Path(args.config).name,
+                                       *options]), lines)
 
 
 def _children_cpu_s() -> float:
