@@ -32,6 +32,11 @@ pour term is what a DEM pour costs: the allocation prices a case's new packing w
 engine's entry.
 
 Run: .venv/bin/python benchmarks/bench_cells.py --cost --engine dem [packings folder]
+
+``--cost --engine dem --pours-only`` measures the pours alone and refits the entry with the runs
+it already holds (the run and pour terms are fitted apart): for a pour term to be measured
+again without the runs, whose cost this machine's speed moves by up to 2x from one hour to the
+next.
 """
 
 from __future__ import annotations
@@ -67,12 +72,18 @@ DEM_COST_RUNS = ((50.0, 1000.0, DEM_COST_CELLS), (50.0, 500.0, DEM_COST_CELLS),
 DEM_REPETITIONS = 3
 
 
-def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> None:
-    """Measure the CPU time of runs of k cells and of pours; fit and store ``engine``'s cost model."""
+def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
+                 pours_only: bool = False) -> None:
+    """Measure the CPU time of runs of k cells and of pours; fit and store ``engine``'s cost
+    model (``pours_only``: the pours alone, the runs kept from the stored entry)."""
     from _record import machine
 
     from pidpipe.cell.scene import CellScene
-    from pidpipe.measurement.cost_model import fit_cost_model, store_cost_model
+    from pidpipe.measurement.cost_model import fit_cost_model, load_cost_model, store_cost_model
+
+    kept = load_cost_model(engine) if pours_only else None
+    if pours_only and not (kept and kept.points):
+        raise SystemExit(f"--pours-only: no stored {engine} entry with runs to keep")
 
     config = load_config()
     if engine == "dem":
@@ -90,8 +101,9 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> Non
             return run_case(ShakeSettings.from_config(config), case, packings,
                             workdir)["engine"]["liggghts_cpu_time_s"]
         runs = COST_RUNS
-    command = "python benchmarks/bench_cells.py --cost" + (" --engine dem" if engine == "dem" else "")
-    points, pours = [], []
+    command = ("python benchmarks/bench_cells.py --cost" + (" --engine dem" if engine == "dem" else "")
+               + (" --pours-only" if pours_only else ""))
+    points, pours = ([dict(point) for point in kept.points] if kept else []), []
     lines = ["| fill % | spheres/cell | f Hz | cells k | steps | CPU s | us per step | model s |",
              "|---|---|---|---|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as scratch:
@@ -105,7 +117,7 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> Non
             sampling = ShakeSettings.from_config(config).sampling
             steps = (CellScene.from_config(config).timestep(freq).steps_per_cycle
                      * (sampling.transient_cycles_at(freq) + sampling.measured_cycles))
-            for k in cell_counts:
+            for k in () if pours_only else cell_counts:
                 cpu = cpu_of_run(case, packings[:k], Path(scratch) / f"r{fill:g}_f{freq:g}_k{k}")
                 points.append({"fill_pct": fill, "n_spheres": packings[0].n_spheres, "freq_hz": freq,
                                "cells": k, "steps": steps, "cpu_s": cpu})
@@ -117,6 +129,8 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None) -> Non
         lines.append(f"| {p['fill_pct']:g} | {p['n_spheres']} | {p['freq_hz']:g} | {p['cells']} | "
                      f"{p['steps']} | {p['cpu_s']:.2f} | {1e6 * p['cpu_s'] / p['steps']:.1f} | "
                      f"{model.run_cpu_s(p['cells'], p['n_spheres'], p['steps']):.2f} |")
+    if pours_only:
+        lines += ["", f"Runs kept from the stored entry ({kept.date}, `{kept.command}`); pours measured now."]
     lines += ["", f"Model (written to {path.name}): {model.describe()}",
               f"Pours: {len(pours)}, CPU s each {np.mean([p['cpu_s'] for p in pours]):.2f} mean, "
               f"{np.min([p['cpu_s'] for p in pours]):.2f}-{np.max([p['cpu_s'] for p in pours]):.2f}."]
@@ -132,7 +146,9 @@ def main() -> None:
             engine, rest = rest[1], rest[2:]
             if engine not in ("liggghts", "dem"):
                 raise SystemExit(f"--engine {engine}: expected liggghts or dem")
-        measure_cost(engine, rest[0] if rest else None)
+        pours_only = "--pours-only" in rest
+        rest = [arg for arg in rest if arg != "--pours-only"]
+        measure_cost(engine, rest[0] if rest else None, pours_only)
         return
     cells = int(sys.argv[1]) if len(sys.argv) > 1 else 7
     freqs = [float(f) for f in sys.argv[2:]] or [100.0, 500.0, 1000.0]
