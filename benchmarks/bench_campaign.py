@@ -87,7 +87,7 @@ def main() -> None:
              f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
              f"case status counts: {cases['status'].value_counts().to_dict()}; target "
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
-             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot failing a steady-state check); relative SEM "
+             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot or later run failing a steady-state check); relative SEM "
              f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
              f"{pool} packings poured on demand into the pool (their CPU is inside the case jobs)", "",
              "| stage (rule) | jobs | summed job time s |", "|---|---|---|"]

@@ -14,7 +14,9 @@ is at most the target, or a cap stops it (``max_cells_per_case``, ``max_measured
 ``max_case_cpu_s``, :data:`MAX_STEPS`): then the record is flagged ``target_not_reached`` and
 keeps the SEM it got. A C_eq not resolved from zero is not chased (no step), nor is a pilot
 that fails a steady-state check (:data:`UNSTEADY_FLAGS`): such a case is flagged and not
-fitted, and more cells or cycles did not clear the flag in any of the 10 cases measured.
+fitted, and more cells or cycles did not clear the flag in any of the 10 cases measured. A case
+whose later run fails one is chased no further, for the same reason (the flag is the union of
+the runs' own).
 
 The CPU cap is checked against the cost model's CPU of the runs (their planned cost), not the
 measured one, so that a loaded machine does not change which runs a case makes: the same config
@@ -53,7 +55,11 @@ UNSTEADY_FLAGS = ("not_steady", "not_stationary")
 """A pilot with one of these flags is not chased: in the default campaign at 5 % (2026-12-01,
 ``benchmarks/results.md``) 10 pilots failed a steady-state check, the steps after them cost 953
 of the campaign's 5123 LIGGGHTS CPU-s, and none of the 10 cases ended unflagged (a flagged case
-is never fitted)."""
+is never fitted). Nor is a case after a step whose run has one: in the DEM campaign of
+2026-12-01 18:13 UTC (``/work/runs/ab_new``) 8 cases had a run flagged so after the pilot, and
+all 8 ended flagged; run with and without this rule (19:45 and 20:02 UTC, ``ab3_new1`` and
+``ab3_new3``, the same code otherwise), it stopped 9 cases, and each of the 9 ended flagged
+both ways."""
 
 TARGET_NOT_REACHED = "target_not_reached"
 """The flag of a case that ended above its target. It is a note on precision, not a failed
@@ -115,7 +121,8 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     -------
     dict
         The combined record; with a target, ``target`` = {relative_sem, reached, cells,
-        measured_cycles, not_chased (why no step followed the pilot, or None), runs (every
+        measured_cycles, not_chased (why the case was not chased, or not further; None when
+        it ran to the target or a cap), runs (every
         run, and every continuation of one: index, kind, continued, from_measured_cycles,
         seeds, measured cycles, used, cpu_time_s, planned_cpu_s, wall_time_s), steps (each
         planned step), cpu_time_s, planned_cpu_s, wall_time_s}, and ``target_not_reached``
@@ -155,6 +162,11 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
                              limits.cells_per_run, history)
         cycles = step.cycles
         case = combine([current[i] for i in sorted(current)])
+        unsteady = [flag for flag in case.get("flags", []) if flag in UNSTEADY_FLAGS]
+        if unsteady:          # flagged, so never fitted: its SEM is not worth more CPU
+            not_chased = (f"flagged {', '.join(unsteady)} after step {len(planned_steps)} "
+                          f"({sum(len(groups[i]) for i in current)} cells x {cycles} cycles)")
+            break
     reached = bool(case["ceq_cell_sem_ns_m"] <= relative_sem * case["ceq_cell_ns_m"]
                    and case["ceq_cell_ns_m"] > 0.0)
     _mark_used(history, current)

@@ -189,6 +189,29 @@ def test_a_pilot_that_fails_a_steady_state_check_is_not_chased(flag):
     assert len(chased["target"]["runs"]) > 1 and chased["target"]["not_chased"] is None
 
 
+def test_a_case_whose_later_run_fails_a_steady_state_check_is_chased_no_further():
+    engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)   # needs several steps of cells
+
+    def unsteady_after_pilot(packings, cycles, index):
+        record = engine.shake(packings, cycles, index)
+        return record if index == 0 else {**record, "status": "flagged", "flags": ["not_steady"]}
+
+    limits = dataclasses.replace(LIMITS, cells_per_run=7)       # the first step: several runs
+    pilot = [FakePacking(100 + j) for j in range(7)]
+    record = measure_to_target(pilot, 40, 0.05, limits, unsteady_after_pilot, packings_from(100),
+                               costs(5.0), lambda records: combine_runs(records, F_HZ, G, 441))
+    target = record["target"]
+    assert len(target["steps"]) == 1                             # no step after the flagged one
+    assert target["not_chased"].startswith("flagged not_steady after step 1 (")
+    assert target["cells"] == 7 + target["steps"][0]["new_cells"]
+    assert not target["reached"] and record["status"] == "flagged"
+    assert TARGET_NOT_REACHED in record["flags"] and "not_steady" in record["flags"]
+    # unflagged, the same engine takes more than one step to its target
+    chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, limits)
+    assert chased["target"]["reached"] and chased["target"]["not_chased"] is None
+    assert len(chased["target"]["steps"]) > 1
+
+
 def test_without_a_target_the_pilot_is_the_case():
     engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
     record = measure(engine, None, LIMITS)
