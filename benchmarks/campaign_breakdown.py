@@ -10,7 +10,8 @@ and |z_paired|, the paired agreement by acceleration among the cases both solver
 median |paired_rel_diff| by acceleration and each 1 g case's paired difference.
 With ``--against OTHER_RESULTS_DIR`` (the same config run by other code): for the cases both
 have, whether their records agree apart from timing (C_eq, its SEM, cells and cycles, flags),
-and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases.
+and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases;
+then each case measured differently, with its cells, cycles, status, flags and CPU in each.
 
 Run: .venv/bin/python benchmarks/campaign_breakdown.py RESULTS_DIR [--against OTHER_RESULTS_DIR]
 """
@@ -49,9 +50,18 @@ def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list
     """Lines comparing the engine CPU of the cases both campaigns have, by frequency."""
     theirs = {r["case_id"]: r for r in others}
     pairs = [(r, theirs[r["case_id"]]) for r in records if r["case_id"] in theirs]
-    same = sum(all(a.get(k) == b.get(k) for k in SAME_KEYS)
-               and a["target"]["cells"] == b["target"]["cells"]
-               and a["target"]["measured_cycles"] == b["target"]["measured_cycles"] for a, b in pairs)
+    def alike(a: dict, b: dict) -> bool:
+        return (all(a.get(k) == b.get(k) for k in SAME_KEYS)
+                and a["target"]["cells"] == b["target"]["cells"]
+                and a["target"]["measured_cycles"] == b["target"]["measured_cycles"])
+
+    def outcome(record: dict) -> str:
+        target = record["target"]
+        flags = ", ".join(record["flags"]) or "no flags"
+        return (f"{target['cells']} cells x {target['measured_cycles']} cycles, {record['status']} "
+                f"({flags}), {target['cpu_time_s']:.1f} CPU-s")
+
+    same = sum(alike(a, b) for a, b in pairs)
     header = (f"against {other_dir}: {len(pairs)} cases in both, {same} of them the same measurement "
               "(C_eq, SEM, status, flags, cells, cycles)")
     lines = [header, "",
@@ -62,6 +72,10 @@ def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list
         label = freq if freq == "all" else f"{freq:g}"
         lines.append(f"| {label} | {len(part)} | {part['here'].sum():.0f} | {part['there'].sum():.0f} | "
                      f"{part['here'].sum() / part['there'].sum():.2f} |")
+    differing = [(a, b) for a, b in pairs if not alike(a, b)]
+    if differing:
+        lines += ["", "The cases measured differently (here / there):"]
+        lines += [f"- {a['case_id']}: {outcome(a)} / {outcome(b)}" for a, b in differing]
     return lines
 
 
