@@ -58,8 +58,8 @@ of the campaign's 5123 LIGGGHTS CPU-s, and none of the 10 cases ended unflagged 
 is never fitted). Nor is a case after a step whose run has one: in the DEM campaign of
 2026-12-01 18:13 UTC (``/work/runs/ab_new``) 8 cases had a run flagged so after the pilot, and
 all 8 ended flagged; run with and without this rule (19:45 and 20:02 UTC, ``ab3_new1`` and
-``ab3_new3``, the same code otherwise), it stopped 9 cases, and each of the 9 ended flagged
-both ways."""
+``ab3_new3``, the same code otherwise), it marked 9 cases not chased, and each of the 9 ended
+flagged both ways (one had reached its target at that step: such a case is no longer marked)."""
 
 TARGET_NOT_REACHED = "target_not_reached"
 """The flag of a case that ended above its target. It is a note on precision, not a failed
@@ -163,7 +163,8 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         cycles = step.cycles
         case = combine([current[i] for i in sorted(current)])
         unsteady = [flag for flag in case.get("flags", []) if flag in UNSTEADY_FLAGS]
-        if unsteady:          # flagged, so never fitted: its SEM is not worth more CPU
+        above = not case["ceq_cell_sem_ns_m"] <= relative_sem * case["ceq_cell_ns_m"]
+        if unsteady and above:    # flagged, so never fitted: its SEM is not worth more CPU
             not_chased = (f"flagged {', '.join(unsteady)} after step {len(planned_steps)} "
                           f"({sum(len(groups[i]) for i in current)} cells x {cycles} cycles)")
             break

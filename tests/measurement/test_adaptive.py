@@ -210,6 +210,18 @@ def test_a_case_whose_later_run_fails_a_steady_state_check_is_chased_no_further(
     chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, limits)
     assert chased["target"]["reached"] and chased["target"]["not_chased"] is None
     assert len(chased["target"]["steps"]) > 1
+    # flagged at the step that reaches the target: reached, so nothing was left unchased
+    flagged_late = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
+    last = len(chased["target"]["runs"]) - 1
+
+    def unsteady_at_the_end(packings, cycles, index):
+        record = flagged_late.shake(packings, cycles, index)
+        return record if index < last else {**record, "status": "flagged", "flags": ["not_steady"]}
+
+    record = measure_to_target(pilot, 40, 0.05, limits, unsteady_at_the_end, packings_from(100),
+                               costs(5.0), lambda records: combine_runs(records, F_HZ, G, 441))
+    assert record["target"]["reached"] and record["target"]["not_chased"] is None
+    assert "not_steady" in record["flags"] and len(record["target"]["runs"]) == last + 1
 
 
 def test_without_a_target_the_pilot_is_the_case():
