@@ -3,7 +3,7 @@ check reads (issue 12): the figures the README quotes from the default 5 % campa
 
 From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU and the
 reached count of the 1 g cases; the engine CPU of the runs by kind, used and not used (a
-pilot replaced by a longer run is not used); the cases whose pilot failed a steady-state check
+pilot replaced by a longer run is not used); each case's CPU over its pilot's, by acceleration; the cases whose pilot failed a steady-state check
 (``not_steady``/``not_stationary``), the CPU of their runs after the pilot and how many ended
 without such a flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
 and |z_paired|, the paired agreement by acceleration among the cases both solvers passed, the
@@ -44,6 +44,19 @@ def cpu_by_kind(records: list[dict]) -> str:
             kind = run["kind"] + (" (continued)" if run.get("continued") else "")
             sums.setdefault(kind, [0.0, 0.0])[0 if run["used"] else 1] += run["cpu_time_s"]
     return "; ".join(f"{kind} {used:.1f} / {unused:.1f}" for kind, (used, unused) in sums.items())
+
+
+def growth_by_acceleration(records: list[dict]) -> str:
+    """Each case's engine CPU over its pilot's, median and largest by acceleration: how much of
+    a case the pilot's cost foretells (the DEM jobs are scheduled by it)."""
+    ratios: dict[float, list[float]] = {}
+    for record in records:
+        runs = (record.get("target") or {}).get("runs", [])
+        if runs and runs[0]["cpu_time_s"] > 0:
+            ratios.setdefault(record["accel_g"], []).append(
+                record["target"]["cpu_time_s"] / runs[0]["cpu_time_s"])
+    return "; ".join(f"{g:g} g {pd.Series(v).median():.1f} ({max(v):.1f})"
+                     for g, v in sorted(ratios.items()))
 
 
 def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list[str]:
@@ -99,7 +112,9 @@ def main() -> None:
              f"({one_g_cpu / total_cpu:.0%}), {sum(1 for r in one_g if r['target'].get('reached'))} "
              f"reached; pilots failing a steady-state check: {len(unsteady)}, their later runs "
              f"{after:.0f} s CPU, {cleared} of them ended without such a flag",
-             f"engine CPU of the runs by kind (used / not used), s: {cpu_by_kind(records)}"]
+             f"engine CPU of the runs by kind (used / not used), s: {cpu_by_kind(records)}",
+             "a case's CPU over its pilot's, median (largest), by acceleration: "
+             f"{growth_by_acceleration(records)}"]
     grid_path = results / "validation" / "grid.csv"
     if grid_path.is_file():
         grid = pd.read_csv(grid_path)

@@ -106,6 +106,31 @@ def dem_batch_case_ids(config: dict, freq: str, accel: str, replicate: str) -> l
     return [f"f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}" for fill in dem_batch_fills(config)]
 
 
+CHASE_WEIGHT_AT_1G = 3.0
+"""How many times a case at G <= 1 counts its pilot's time steps in a DEM job's priority, when
+the cases have a target. No sphere leaves the floor there, C_eq is contact damping and noisy,
+and such a case cost a median 2.8-3.1x its pilot's CPU in the DEM campaigns of 2026-12-01,
+against 1.0-1.2x at 5 and 10 g (``benchmarks/campaign_breakdown.py``, "a case's CPU over its
+pilot's", on /work/runs/ab_new, ab3_new1, ab3_new2). Weighted so, the 1000 Hz / 1 g job no
+longer starts last and ends the cases alone. Only the order of the jobs changes, not a result."""
+
+
+def dem_batch_priority(config: dict, case_ids: list[str]) -> float:
+    """A ``simulate_dem_cases`` job's priority: its cases' planned pilot time steps, in millions,
+    those at G <= 1 weighted by :data:`CHASE_WEIGHT_AT_1G` when there is a target; the costliest
+    job first."""
+    from pidpipe.config.settings import ShakeSettings
+    from pidpipe.studies.fidelity import planned_steps
+
+    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    chased = settings.sampling.target_relative_sem is not None
+    total = 0.0
+    for case in map(CaseSpec.from_id, case_ids):
+        weight = CHASE_WEIGHT_AT_1G if chased and case.accel_g <= 1.0 else 1.0
+        total += weight * planned_steps(settings, case)
+    return total / 1e6
+
+
 def budget_params(config: dict) -> dict:
     """What the optimiser's particle budget depends on: n_b, spheres per full cell, N, N_panel."""
     return Budget.from_config(config).as_params()

@@ -6,6 +6,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
                                   campaign_cases, campaign_packing_ids, case_packing_ids,
                                   dem_batch_case_ids, dem_batch_constraint, dem_batch_fills,
+                                  dem_batch_priority,
                                   pour_batch_constraint, pour_batch_replicates,
                                   environment_params, inspected_cases, map_uncertainty_params,
                                   optimisation_params, verify_case_config, verify_params)
@@ -117,10 +118,8 @@ def get_dem_batch_runtime_min(wildcards, attempt):
 
 
 def get_dem_batch_priority(wildcards):
-    """Planned time steps of a simulate_dem_cases job's pilots, in millions: the costliest first."""
-    settings = ShakeSettings.from_config(stage_config(config, "case"))
-    return sum(fidelity_study.planned_steps(settings, CaseSpec.from_id(case_id))
-               for case_id in get_dem_batch_case_ids(wildcards)) / 1e6
+    """A simulate_dem_cases job's priority (pidpipe.steps.params.dem_batch_priority)."""
+    return dem_batch_priority(config, get_dem_batch_case_ids(wildcards))
 
 
 # The DEM's pours of one grid fill share a job (pour_dem_packings): one process's start-up, and
