@@ -3,9 +3,10 @@ check reads (issue 12): the figures the README quotes from the default 5 % campa
 
 From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU and the
 reached count of the 1 g cases; the engine CPU of the runs by kind, used and not used (a
-pilot replaced by a longer run is not used); each case's CPU over its pilot's, by acceleration; the cases whose pilot failed a steady-state check
-(``not_steady``/``not_stationary``), the CPU of their runs after the pilot and how many ended
-without such a flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
+pilot replaced by a longer run is not used); each case's CPU over its pilot's, by
+acceleration; the cases whose pilot failed a steady-state check (``not_steady``/
+``not_stationary``), the CPU of their runs after the pilot and how many ended without such a
+flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
 and |z_paired|, the paired agreement by acceleration among the cases both solvers passed, the
 median |paired_rel_diff| by acceleration and each 1 g case's paired difference.
 With ``--against OTHER_RESULTS_DIR`` (the same config run by other code): for the cases both

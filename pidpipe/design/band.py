@@ -188,28 +188,34 @@ class _BandProblem:
         return {"fill_pct": float(x[0]), "n_cells": self.n_cells(x[0]),
                 **({"t_ns_m": float(x[1])} if self.kind == "worst_case" else {})}
 
-    def band_totals(self, fill_pct: float, n_cells: float) -> np.ndarray:
-        """T at every band node (quadrature or grid), N*s/m, shape (n*n,)."""
-        f, g = self.nodes[0], self.nodes[1]
-        values = self.model.predict(f, g, np.full_like(f, fill_pct))
-        return np.asarray(values, dtype=float) / self.budget.n_cells_coupon * n_cells
-
-    def band_totals_at(self, zs: np.ndarray) -> np.ndarray:
-        """:meth:`band_totals` at the fill (and its n_c) of each row of ``zs``, in one
+    def band_totals_of(self, fills: np.ndarray, n_cells: np.ndarray) -> np.ndarray:
+        """T at every band node (quadrature or grid) for each fill r (%) and its n_c, in one
         prediction; shape (m, n*n), N*s/m."""
-        fills = self.to_x(zs)[:, 0]
         f, g = self.nodes[0], self.nodes[1]
         values = np.asarray(self.model.predict(np.tile(f, fills.size), np.tile(g, fills.size),
                                                np.repeat(fills, f.size)), dtype=float)
-        n_cells = self.budget.n_spheres / self.budget.spheres_per_cell(fills)
         return values.reshape(fills.size, f.size) / self.budget.n_cells_coupon * n_cells[:, None]
+
+    def band_totals(self, fill_pct: float, n_cells: float) -> np.ndarray:
+        """T at every band node of n_c cells at fill r, N*s/m, shape (n*n,)."""
+        return self.band_totals_of(np.array([fill_pct], dtype=float),
+                                   np.array([n_cells], dtype=float))[0]
+
+    def band_totals_at(self, zs: np.ndarray) -> np.ndarray:
+        """:meth:`band_totals_of` at the fill (and the n_c that spends the budget there) of
+        each row of ``zs``; shape (m, n*n), N*s/m."""
+        fills = self.to_x(zs)[:, 0]
+        return self.band_totals_of(fills, self.budget.n_spheres / self.budget.spheres_per_cell(fills))
+
+    def band_objective(self, totals: np.ndarray) -> np.ndarray:
+        """The band mean (quadrature), or the band minimum (grid), of totals over the last axis."""
+        if self.kind == "band_mean":
+            return np.sum(self.nodes[2] * totals, axis=-1)
+        return np.min(totals, axis=-1)
 
     def objective_at(self, fill_pct: float, n_cells: float) -> float:
         """The band mean, or the band minimum, of n_c cells at fill r, N*s/m."""
-        totals = self.band_totals(fill_pct, n_cells)
-        if self.kind == "band_mean":
-            return float(np.sum(self.nodes[2] * totals))
-        return float(np.min(totals))
+        return float(self.band_objective(self.band_totals(fill_pct, n_cells)))
 
     def total_ceq(self, x: np.ndarray) -> float:
         """The design's objective at x, N*s/m."""
@@ -227,7 +233,7 @@ class _BandProblem:
             return np.where(self.fixed, 0.0, np.array([0.0, -self.span[1] / self.scale]))
 
         def objectives(zs):
-            return -np.sum(self.nodes[2] * self.band_totals_at(zs), axis=1) / self.scale
+            return -self.band_objective(self.band_totals_at(zs)) / self.scale
 
         return forward_difference_jacobian(objectives, z, self.fixed)
 

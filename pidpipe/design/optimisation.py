@@ -357,10 +357,15 @@ class _Problem:
         """Physical -> scaled."""
         return np.where(self.fixed, 0.0, (np.asarray(x, dtype=float) - self.lo) / self.span)
 
+    def total_ceqs(self, xs: np.ndarray) -> np.ndarray:
+        """(C_eq(f, G, r) / N) * n_c at each row (f, r, G, n_c) of ``xs`` (m, 4), in one
+        prediction; shape (m,), N*s/m."""
+        f, r, g, n_c = np.asarray(xs, dtype=float).T
+        return np.asarray(self.model.predict(f, g, r), dtype=float) / self.budget.n_cells_coupon * n_c
+
     def total_ceq(self, x: np.ndarray) -> float:
-        """(C_eq(f, G, r) / N) * n_c, N*s/m."""
-        f, r, g, n_c = x
-        return float(self.model.predict(f, g, r)) / self.budget.n_cells_coupon * n_c
+        """(C_eq(f, G, r) / N) * n_c at one x, N*s/m."""
+        return float(self.total_ceqs(np.atleast_2d(x))[0])
 
     def objective(self, z: np.ndarray) -> float:
         """-total C_eq / scale (SLSQP minimises)."""
@@ -368,9 +373,7 @@ class _Problem:
 
     def objectives(self, zs: np.ndarray) -> np.ndarray:
         """:meth:`objective` at each row of ``zs`` (m, 4), in one prediction; shape (m,)."""
-        f, r, g, n_c = self.to_x(zs).T
-        ceq = np.asarray(self.model.predict(f, g, r), dtype=float)
-        return -(ceq / self.budget.n_cells_coupon * n_c) / self.scale
+        return -self.total_ceqs(self.to_x(zs)) / self.scale
 
     def objective_gradient(self, z: np.ndarray) -> np.ndarray:
         """d objective / dz, shape (4,): forward differences (:func:`forward_difference_jacobian`)."""

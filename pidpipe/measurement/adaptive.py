@@ -56,10 +56,11 @@ UNSTEADY_FLAGS = ("not_steady", "not_stationary")
 ``benchmarks/results.md``) 10 pilots failed a steady-state check, the steps after them cost 953
 of the campaign's 5123 LIGGGHTS CPU-s, and none of the 10 cases ended unflagged (a flagged case
 is never fitted). Nor is a case after a step whose run has one: in the DEM campaign of
-2026-12-01 18:13 UTC (``/work/runs/ab_new``) 8 cases had a run flagged so after the pilot, and
-all 8 ended flagged; run with and without this rule (19:45 and 20:02 UTC, ``ab3_new1`` and
-``ab3_new3``, the same code otherwise), it marked 9 cases not chased, and each of the 9 ended
-flagged both ways (one had reached its target at that step: such a case is no longer marked)."""
+2026-12-01 18:13 UTC (``benchmarks/results.md``, "Whole campaign", 18:18) 8 cases had a run
+flagged so after the pilot, and all 8 ended flagged; run with and without this rule (the
+sections of 19:50 and 20:07 UTC, the same code otherwise), it marked 9 cases not chased, and
+each of the 9 ended flagged both ways (one had reached its target at that step: such a case is
+no longer marked)."""
 
 TARGET_NOT_REACHED = "target_not_reached"
 """The flag of a case that ended above its target. It is a note on precision, not a failed
@@ -140,16 +141,16 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     planned_steps = []
     current = {0: records[0]}
     case = combine(list(current.values()))
-    unsteady_pilot = [flag for flag in records[0].get("flags", []) if flag in UNSTEADY_FLAGS]
+    unsteady_pilot = _unsteady_flags(records[0])
     not_chased = f"the pilot is flagged {', '.join(unsteady_pilot)}" if unsteady_pilot else None
     for _ in range(0 if unsteady_pilot else MAX_STEPS):
         value, sem = case["ceq_cell_ns_m"], case["ceq_cell_sem_ns_m"]
         if not (math.isfinite(sem) and value > NOT_RESOLVED_SEMS * sem):
             not_chased = "C_eq is not resolved from zero"
             break
-        if sem <= relative_sem * value:
+        if _at_target(case, relative_sem):
             break
-        cells = sum(len(groups[i]) for i in current)
+        cells = _cells(groups, current)
         spent = sum(entry["planned_cpu_s"] for entry in history)
         continue_cpu_s = None if extend is None else functools.partial(
             _continue_cpu_s, [len(groups[i]) for i in current], cycles, extend_cpu_s)
@@ -162,18 +163,17 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
                              limits.cells_per_run, history)
         cycles = step.cycles
         case = combine([current[i] for i in sorted(current)])
-        unsteady = [flag for flag in case.get("flags", []) if flag in UNSTEADY_FLAGS]
-        above = not case["ceq_cell_sem_ns_m"] <= relative_sem * case["ceq_cell_ns_m"]
-        if unsteady and above:    # flagged, so never fitted: its SEM is not worth more CPU
+        unsteady = _unsteady_flags(case)
+        if unsteady and not _at_target(case, relative_sem):
+            # flagged, so never fitted: its SEM is not worth more CPU
             not_chased = (f"flagged {', '.join(unsteady)} after step {len(planned_steps)} "
-                          f"({sum(len(groups[i]) for i in current)} cells x {cycles} cycles)")
+                          f"({_cells(groups, current)} cells x {cycles} cycles)")
             break
-    reached = bool(case["ceq_cell_sem_ns_m"] <= relative_sem * case["ceq_cell_ns_m"]
-                   and case["ceq_cell_ns_m"] > 0.0)
+    reached = _at_target(case, relative_sem)
     _mark_used(history, current)
     case["target"] = {
         "relative_sem": relative_sem, "reached": reached,
-        "cells": sum(len(groups[i]) for i in current), "measured_cycles": cycles,
+        "cells": _cells(groups, current), "measured_cycles": cycles,
         "limits": {"max_cells": limits.max_cells, "max_measured_cycles": limits.max_cycles,
                    "max_case_cpu_s": limits.max_cpu_s, "cells_per_run": limits.cells_per_run},
         "not_chased": not_chased, "runs": history, "steps": planned_steps,
@@ -184,6 +184,22 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     if not reached:
         case["flags"] = case["flags"] + [TARGET_NOT_REACHED]
     return case
+
+
+def _at_target(case: dict, relative_sem: float) -> bool:
+    """Whether the case's C_eq is positive and its SEM at most ``relative_sem`` of it."""
+    value, sem = case["ceq_cell_ns_m"], case["ceq_cell_sem_ns_m"]
+    return bool(sem <= relative_sem * value and value > 0.0)
+
+
+def _unsteady_flags(record: dict) -> list[str]:
+    """The record's flags among :data:`UNSTEADY_FLAGS`."""
+    return [flag for flag in record.get("flags", []) if flag in UNSTEADY_FLAGS]
+
+
+def _cells(groups: list[list], current: dict) -> int:
+    """Cells of the current runs."""
+    return sum(len(groups[i]) for i in current)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -111,8 +111,9 @@ CHASE_WEIGHT_AT_1G = 3.0
 the cases have a target. No sphere leaves the floor there, C_eq is contact damping and noisy,
 and such a case cost a median 2.8-3.1x its pilot's CPU in the DEM campaigns of 2026-12-01,
 against 1.0-1.2x at 5 and 10 g (``benchmarks/campaign_breakdown.py``, "a case's CPU over its
-pilot's", on /work/runs/ab_new, ab3_new1, ab3_new2). Weighted so, the 1000 Hz / 1 g job no
-longer starts last and ends the cases alone. Only the order of the jobs changes, not a result."""
+pilot's", on the campaigns of ``benchmarks/results.md``'s "Whole campaign" 18:18, 19:50 and
+19:55 UTC). Weighted so, the 1000 Hz / 1 g job no longer ranks last. Only the order of the jobs
+changes, not a result."""
 
 
 def dem_batch_priority(config: dict, case_ids: list[str]) -> float:

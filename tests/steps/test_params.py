@@ -8,7 +8,11 @@ from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
-from pidpipe.steps.params import CHASE_WEIGHT_AT_1G, dem_batch_case_ids, dem_batch_priority
+from pidpipe.steps.params import (
+    CHASE_WEIGHT_AT_1G,
+    dem_batch_case_ids,
+    dem_batch_priority,
+)
 from pidpipe.studies.fidelity import planned_steps
 
 
