@@ -42,7 +42,7 @@ def predict(record: dict, target: float, config: dict) -> tuple[float, float, bo
 
     limits = Limits(int(fidelity["max_cells_per_case"]), int(fidelity["max_measured_cycles"]),
                     float(fidelity["max_case_cpu_s"]), 24)
-    components = components_of(record)
+    components = components_of(record, record["target"]["measured_cycles"])
     cells, cycles = int(fidelity["cells_per_run"]), int(fidelity["measured_cycles"])
     spent = run_cpu_s(cells, cycles)
     value = abs(components.value)

@@ -73,13 +73,37 @@ def run_cpu_time_s(record: dict) -> float:
     return float(engine.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))))
 
 
-def components_of(record: dict) -> Components:
-    """The variance components of a (combined) case record (:func:`combine_runs`)."""
+def components_of(record: dict, measured_cycles: int | None = None) -> Components:
+    """The variance components of a (combined) case record (:func:`combine_runs`).
+
+    Parameters
+    ----------
+    record : dict
+    measured_cycles : int, optional
+        The measured cycles its runs were made with (as configured). The cells keep fewer when
+        the steady-state test found a longer transient than the configured one; the difference
+        becomes :attr:`Components.lost_cycles`, chosen so that the components give, at the
+        record's cells and cycles, the cycle part of the SEM the record reports (a plan made
+        with the configured cycles would see a SEM below the reported one, and could stop a
+        case short of its target). None: none lost.
+    """
     value = record["ceq_cell_ns_m"]
     packing_std = record.get("ceq_cell_packing_std_ns_m", float("nan"))
     if not math.isfinite(packing_std):
         packing_std = PRIOR_PACKING_RELATIVE_STD * abs(value)
-    return Components(value, packing_std ** 2, record["cycle_noise_ns_m_sqrt_cycle"] ** 2)
+    noise_var = record["cycle_noise_ns_m_sqrt_cycle"] ** 2
+    return Components(value, packing_std ** 2, noise_var,
+                      _lost_cycles(record, noise_var, measured_cycles))
+
+
+def _lost_cycles(record: dict, noise_var: float, measured_cycles: int | None) -> float:
+    """Configured measured cycles minus the cycles the record's cells kept in effect: tau^2 over
+    the mean of the cells' squared cycle SEMs (the cells' own count when they agree), >= 0."""
+    cells = max(len(record.get("cells") or []), 1)
+    cycle_var = cells * record.get("ceq_cell_cycle_sem_ns_m", float("nan")) ** 2
+    if measured_cycles is None or not (math.isfinite(cycle_var) and cycle_var > 0.0):
+        return 0.0
+    return max(0.0, float(measured_cycles) - noise_var / cycle_var)
 
 
 def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | None,
@@ -154,7 +178,7 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         spent = sum(entry["planned_cpu_s"] for entry in history)
         continue_cpu_s = None if extend is None else functools.partial(
             _continue_cpu_s, [len(groups[i]) for i in current], cycles, extend_cpu_s)
-        step = plan_next_step(components_of(case), cells, cycles, spent, relative_sem * value,
+        step = plan_next_step(components_of(case, cycles), cells, cycles, spent, relative_sem * value,
                               limits, run_cpu_s, pour_cpu_s, continue_cpu_s)
         if step is None:
             break

@@ -5,7 +5,11 @@ variance components (:func:`pidpipe.measurement.cells.mean_of_cells`): the sprea
 packings, sigma_b^2, which only more cells reduce, and the cells' long-run cycle noise tau^2
 (a cell's squared SEM over n cycles is tau^2 / n), so that K cells of N cycles each give
 
-    SEM^2(K, N) = (sigma_b^2 + tau^2 / N) / K.
+    SEM^2(K, N) = (sigma_b^2 + tau^2 / (N - L)) / K,
+
+with L the measured cycles that the steady-state test discards beyond the configured transient
+(:attr:`Components.lost_cycles`: a run of N measured cycles keeps N - L of them when it finds
+a longer transient).
 
 Three kinds of step can follow (all cells of a case always have the same measured cycles):
 
@@ -60,20 +64,25 @@ class Components:
         sigma_b^2, (N s/m)^2.
     cycle_noise_var : float
         tau^2, (N s/m)^2 x cycles.
+    lost_cycles : float
+        L, measured cycles (as configured) that the cells do not keep: the steady-state test
+        found a transient longer than the configured one and discarded them, cycles (>= 0).
     """
 
     value: float
     packing_var: float
     cycle_noise_var: float
+    lost_cycles: float = 0.0
 
     def sem(self, cells: int, cycles: int) -> float:
         """Predicted SEM of the mean of ``cells`` cells of ``cycles`` measured cycles each, N s/m."""
-        return math.sqrt((self.packing_var + self.cycle_noise_var / cycles) / cells)
+        kept = max(cycles - self.lost_cycles, 1.0)
+        return math.sqrt((self.packing_var + self.cycle_noise_var / kept) / cells)
 
     def cycles_for(self, cells: int, sem: float) -> float:
         """Fewest measured cycles for which ``cells`` cells reach ``sem`` (inf if no number does)."""
         room = cells * sem ** 2 - self.packing_var
-        return self.cycle_noise_var / room if room > 0.0 else math.inf
+        return self.cycle_noise_var / room + self.lost_cycles if room > 0.0 else math.inf
 
 
 @dataclasses.dataclass(frozen=True)

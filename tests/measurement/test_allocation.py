@@ -129,3 +129,16 @@ def test_both_continues_the_old_runs_only_where_that_is_cheaper():
     assert fresh.cpu_s == pytest.approx(run_cost(fresh.run_cells, fresh.cycles) + fresh.new_cells * 5.0)
     assert fresh.cpu_s < (continue_cost(fresh.cycles) + run_cost(fresh.new_cells, fresh.cycles)
                           + fresh.new_cells * 5.0)
+
+
+def test_lost_cycles_are_taken_off_the_measured_cycles():
+    # a run of N measured cycles keeps N - L: SEM and the cycles asked for both count them
+    plain = components(0.05, 0.10)
+    losing = Components(plain.value, plain.packing_var, plain.cycle_noise_var, lost_cycles=30.0)
+    assert losing.sem(7, 70) == pytest.approx(plain.sem(7, 40), rel=1e-15)
+    assert losing.cycles_for(7, 0.03) == pytest.approx(plain.cycles_for(7, 0.03) + 30.0, rel=1e-15)
+    assert losing.cycles_for(7, 0.01) == math.inf == plain.cycles_for(7, 0.01)
+    step = plan_next_step(losing, 7, 70, 10.0, 0.03, LIMITS, run_cost, pour_cpu_s=1e3)
+    assert step.kind == "more_cycles" and step.reaches_target
+    assert step.predicted_sem == pytest.approx(losing.sem(7, step.cycles), rel=1e-15)
+    assert losing.sem(7, step.cycles) <= 0.03 / math.sqrt(PLAN_MARGIN) * (1 + 1e-12)
