@@ -4,11 +4,13 @@ check reads (issue 12): the figures the README quotes from the default 5 % campa
 From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU and the
 reached count of the 1 g cases; the engine CPU of the runs by kind, used and not used (a
 pilot replaced by a longer run is not used); each case's CPU over its pilot's, by
-acceleration; the cases whose pilot failed a steady-state check (``not_steady``/
+acceleration; the flagged cases and the spread between packings over C_eq, by acceleration;
+the cases whose pilot failed a steady-state check (``not_steady``/
 ``not_stationary``), the CPU of their runs after the pilot and how many ended without such a
 flag. From ``results/validation/grid.csv`` if present: the median |z_combined|
 and |z_paired|, the paired agreement by acceleration among the cases both solvers passed, the
-median |paired_rel_diff| by acceleration and each 1 g case's paired difference.
+median |paired_rel_diff| by acceleration, each 1 g case's paired difference and the cases
+beyond 2 paired SEM.
 With ``--against OTHER_RESULTS_DIR`` (the same config run by other code): for the cases both
 have, whether their records agree apart from timing (C_eq, its SEM, cells and cycles, flags),
 and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases;
@@ -58,6 +60,21 @@ def growth_by_acceleration(records: list[dict]) -> str:
                 record["target"]["cpu_time_s"] / runs[0]["cpu_time_s"])
     return "; ".join(f"{g:g} g {pd.Series(v).median():.1f} ({max(v):.1f})"
                      for g, v in sorted(ratios.items()))
+
+
+def spread_by_acceleration(records: list[dict]) -> str:
+    """By acceleration: the flagged cases, and each case's spread between packings over its
+    C_eq (``ceq_cell_packing_std_ns_m`` / ``ceq_cell_ns_m``), median and range: what more cells
+    must beat when a target is out of reach."""
+    parts = []
+    for g in sorted({r["accel_g"] for r in records}):
+        here = [r for r in records if r["accel_g"] == g]
+        spread = pd.Series([r.get("ceq_cell_packing_std_ns_m", float("nan")) / abs(r["ceq_cell_ns_m"])
+                            for r in here if r["ceq_cell_ns_m"]]).dropna()
+        flagged = sum(1 for r in here if r["status"] == "flagged")
+        parts.append(f"{g:g} g {flagged} of {len(here)} flagged, spread {spread.median():.0%} "
+                     f"({spread.min():.0%}-{spread.max():.0%})")
+    return "; ".join(parts)
 
 
 def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list[str]:
@@ -115,7 +132,9 @@ def main() -> None:
              f"{after:.0f} s CPU, {cleared} of them ended without such a flag",
              f"engine CPU of the runs by kind (used / not used), s: {cpu_by_kind(records)}",
              "a case's CPU over its pilot's, median (largest), by acceleration: "
-             f"{growth_by_acceleration(records)}"]
+             f"{growth_by_acceleration(records)}",
+             "flagged cases and the spread between packings over C_eq, median (range), by "
+             f"acceleration: {spread_by_acceleration(records)}"]
     grid_path = results / "validation" / "grid.csv"
     if grid_path.is_file():
         grid = pd.read_csv(grid_path)
@@ -130,6 +149,9 @@ def main() -> None:
         one_g = ", ".join(f"{row.case_id} {row.paired_rel_diff:+.3%} (z_paired {row.z_paired:+.1f})"
                           for row in both[both["accel_g"] == 1].itertuples())
         lines.append(f"median |paired_rel_diff| (both ok): {size}; at 1 g: {one_g}")
+        beyond = ", ".join(f"{row.case_id} {row.paired_rel_diff:+.1%} (z_paired {row.z_paired:+.1f})"
+                           for row in both[both["z_paired"].abs() > 2].itertuples())
+        lines.append(f"beyond 2 paired SEM (both ok): {beyond or 'none'}")
     command = f"python benchmarks/campaign_breakdown.py {results}"
     if args.against:
         lines += ["", *paired_cpu(records, load_records(args.against), args.against)]
