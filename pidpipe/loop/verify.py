@@ -300,7 +300,7 @@ def stale_records(records: dict[str, dict], fidelity: dict,
     """
     stale = []
     for case_id, record in records.items():
-        made = record.get("fidelity") or {}
+        made = pilot_fidelity(record)
         for key in FIDELITY_KEYS:
             if made.get(key) != fidelity[key]:
                 stale.append(f"{case_id}: {key} {made.get(key)!r} (configured {fidelity[key]!r})")
@@ -309,6 +309,33 @@ def stale_records(records: dict[str, dict], fidelity: dict,
             stale.append(f"{case_id}: target_relative_sem {target!r} (configured "
                          f"{target_relative_sem!r})")
     return stale
+
+
+def pilot_fidelity(record: dict) -> dict:
+    """A record's ``fidelity`` block with the cells and measured cycles of its pilot run.
+
+    A case run to a target keeps its pilot's settings in ``target.runs[0]``; the allocation
+    then adds cells and cycles (:func:`pidpipe.measurement.adaptive.measure_to_target`), so
+    the record's own ``fidelity.measured_cycles`` and ``cells_per_run`` are the extended
+    run's, not the configured ones. Comparing those with the config would call every extended
+    record stale, and ``verify`` would ask for a rerun that changes nothing.
+
+    Parameters
+    ----------
+    record : dict
+        A case record.
+
+    Returns
+    -------
+    dict
+        ``fidelity`` as the pilot was configured: ``measured_cycles`` and ``cells_per_run``
+        from ``target.runs[0]`` when the record has one, else the record's own.
+    """
+    made = dict(record.get("fidelity") or {})
+    runs = (record.get("target") or {}).get("runs") or []
+    if runs:
+        made.update(measured_cycles=runs[0]["measured_cycles"], cells_per_run=runs[0]["cells"])
+    return made
 
 
 def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.DataFrame,

@@ -1,5 +1,6 @@
 """Which cases check the designs, how shared points collapse, and how DEM and surrogate compare."""
 
+import copy
 import itertools
 
 import numpy as np
@@ -196,3 +197,20 @@ def test_a_record_made_with_other_settings_is_named():
     stale = stale_records({"a": current, "b": old}, fidelity, 0.05)
     assert stale == ["a: target_relative_sem None (configured 0.05)", "b: engine 'liggghts' (configured 'dem')",
                      "b: target_relative_sem None (configured 0.05)"]
+
+
+def test_a_record_the_allocation_extended_is_current():
+    """The allocation took the case from its pilot (1 cell x 10 cycles) to 20 cells x 400
+    cycles: the record's fidelity shows the extended run, its target block the pilot. It was
+    made with the configured settings, so it is not stale; a pilot of other settings is."""
+    fidelity = {"engine": "dem", "timestep_rayleigh_fraction_config": 0.2, "youngs_modulus_scale": 1.0,
+                "measured_cycles": 10, "rotation": True, "friction": True, "cells_per_run": 1}
+    extended = record("f475Hz_G1.5_r23.81pct_rep0", 5.2, 2.0)
+    extended["fidelity"].update(fidelity, measured_cycles=400, cells_per_run=20)
+    extended["target"] = {"relative_sem": 0.05, "reached": False, "cells": 20, "measured_cycles": 400,
+                          "runs": [{"run": 0, "kind": "pilot", "cells": 1, "measured_cycles": 10},
+                                   {"run": 1, "kind": "new", "cells": 19, "measured_cycles": 400}]}
+    assert stale_records({"a": extended}, fidelity, 0.05) == []
+    other_pilot = copy.deepcopy(extended)
+    other_pilot["target"]["runs"][0]["measured_cycles"] = 40
+    assert stale_records({"a": other_pilot}, fidelity, 0.05) == ["a: measured_cycles 40 (configured 10)"]
