@@ -210,6 +210,7 @@ def _check_semantics(config: dict) -> None:
             if low <= 0:
                 raise ConfigError(f"config key environments[{index}].{band} = {env[band]!r} is not allowed: "
                                   "both ends must be > 0")
+    _check_environments_in_reach(config)
     fidelity = config["fidelity"]
     if fidelity["max_measured_cycles"] < fidelity["measured_cycles"]:
         raise ConfigError(f"config key fidelity.max_measured_cycles = {fidelity['max_measured_cycles']!r} "
@@ -227,3 +228,27 @@ def _check_semantics(config: dict) -> None:
         if budget < least:
             raise ConfigError(f"config key budget = {_short(config['budget'])} is not allowed: it gives "
                               f"{budget} spheres, fewer than one cell at the lowest fill needs ({least})")
+
+
+def _check_environments_in_reach(config: dict) -> None:
+    """Refuse an environment whose band leaves the grid's range of f or G.
+
+    The surrogate is fitted over the grid's bounding box and the optimisation refuses a band
+    outside it (:func:`pidpipe.design.optimisation.environment_bounds`), so without this check
+    such a config ran the whole campaign and failed only at the optimise step. With
+    ``optimisation.external_ceq_table`` the domain is that table's, read later, and nothing is
+    checked here.
+    """
+    if config["optimisation"].get("external_ceq_table") is not None:
+        return
+    grid = config["grid"]
+    for index, env in enumerate(config["environments"]):
+        for band, unit in (("freq_hz", "Hz"), ("accel_g", "g")):
+            low, high = env[band]
+            reach = (min(grid[band]), max(grid[band]))
+            if low < reach[0] or high > reach[1]:
+                raise ConfigError(
+                    f"config key environments[{index}].{band} = {env[band]!r} is not allowed: the "
+                    f"band of {env['name']!r} leaves the grid's range [{reach[0]:g}, {reach[1]:g}] "
+                    f"{unit}, where the campaign measures C_eq; extend grid.{band} to cover it, or "
+                    "narrow the band")

@@ -37,6 +37,10 @@ BAD = [
     ("restitution 0", lambda c: c["pairs"][1].update(restitution=0.0), ["pairs[1].restitution", "0.0", "> 0"]),
     ("budget below one cell", lambda c: c["budget"].update(mode="spheres", spheres=2), ["budget", "2 spheres", "lowest fill"]),
     ("band with lo > hi", lambda c: c["environments"][0].update(accel_g=[6, 5]), ["environments[0].accel_g", "[6, 5]", "low <= high"]),
+    ("band beyond the grid's frequencies", lambda c: c["environments"][0].update(freq_hz=[2000, 3000]),
+     ["environments[0].freq_hz", "[2000, 3000]", "[50, 1000] Hz", "extend grid.freq_hz"]),
+    ("band below the grid's accelerations", lambda c: c["grid"].update(accel_g=[5, 10]),
+     ["environments[1].accel_g", "[1, 2]", "[5, 10] g", "extend grid.accel_g"]),
     ("command in a number field", lambda c: c["materials"]["acrylic"].update(density_kg_m3="1180\nshell rm -rf /"),
      ["materials.acrylic.density_kg_m3", "shell rm -rf", "number"]),
     ("command in a material name", lambda c: c["materials"].update({"x; shell touch pwned": c["materials"]["acrylic"]}),
@@ -94,3 +98,11 @@ def test_schema_lists_exactly_the_surrogate_methods():
 def test_unknown_surrogate_method_is_refused():
     with pytest.raises(ConfigError, match="surrogate.method"):
         validate_config(_mutated(lambda c: c["surrogate"].update(method="kriging")))
+
+
+def test_an_external_table_lifts_the_grid_reach_check():
+    """With optimisation.external_ceq_table the surrogate's domain is that table's: the grid's
+    range says nothing about it (the file's existence is checked by the workflow)."""
+    raw = _mutated(lambda c: (c["environments"][0].update(freq_hz=[2000, 3000]),
+                              c["optimisation"].update(external_ceq_table="table.csv")))
+    assert validate_config(raw)["environments"][0]["freq_hz"] == [2000, 3000]

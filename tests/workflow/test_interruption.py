@@ -220,7 +220,7 @@ def _stop(process: subprocess.Popen) -> None:
 def poured(tmp_path_factory) -> Path:
     """A campaign folder whose packings are poured and checked, and no case is run."""
     workdir = tmp_path_factory.mktemp("poured")
-    write_config(workdir, grid=GRID, fidelity=FIDELITY)
+    write_config(workdir, grid=GRID, fidelity=FIDELITY, environments=[])
     run = snakemake(workdir, "packings")
     assert run.returncode == 0, run.stdout[-5000:]
     return workdir
@@ -241,7 +241,7 @@ def reference(poured, tmp_path_factory) -> Path:
 def fresh(tmp_path_factory) -> Path:
     """The same config run from nothing in another folder: its own pours, its own cases."""
     workdir = tmp_path_factory.mktemp("fresh")
-    write_config(workdir, grid=GRID, fidelity=FIDELITY)
+    write_config(workdir, grid=GRID, fidelity=FIDELITY, environments=[])
     run = snakemake(workdir, *TARGETS)
     assert run.returncode == 0, run.stdout[-5000:]
     return workdir

@@ -303,7 +303,7 @@ def test_several_cells_per_run_pour_their_own_packings_and_report_their_spread(t
     """fidelity.cells_per_run = 2 with 2 replicates: 4 packings per fill, none shared; each
     record holds its 2 cells; the table averages the 2 runs and says how many cells each had."""
     write_config(tmp_path, grid={"freq_hz": [1000], "accel_g": [10], "fill_pct": [25],
-                                 "replicates": 2},
+                                 "replicates": 2}, environments=[],
                  fidelity={"cells_per_run": 2, "transient_cycles": 10, "measured_cycles": 6})
     run = snakemake(tmp_path, "table")
     assert run.returncode == 0, run.stdout[-3000:]
