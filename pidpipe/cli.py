@@ -185,7 +185,10 @@ def check_config_command(args: argparse.Namespace) -> int:
         spheres_for_fill,
     )
 
+    from pidpipe.config.schema import check_environments_in_reach
+
     config = load_config(args.config)
+    check_environments_in_reach(config)
     grid = config["grid"]
     print(f"{args.config}: valid")
     print(f"  {len(grid_cases(config))} cases: f = {grid['freq_hz']} Hz x G = {grid['accel_g']} g x "

@@ -210,7 +210,6 @@ def _check_semantics(config: dict) -> None:
             if low <= 0:
                 raise ConfigError(f"config key environments[{index}].{band} = {env[band]!r} is not allowed: "
                                   "both ends must be > 0")
-    _check_environments_in_reach(config)
     fidelity = config["fidelity"]
     if fidelity["max_measured_cycles"] < fidelity["measured_cycles"]:
         raise ConfigError(f"config key fidelity.max_measured_cycles = {fidelity['max_measured_cycles']!r} "
@@ -230,14 +229,27 @@ def _check_semantics(config: dict) -> None:
                               f"{budget} spheres, fewer than one cell at the lowest fill needs ({least})")
 
 
-def _check_environments_in_reach(config: dict) -> None:
+def check_environments_in_reach(config: dict) -> None:
     """Refuse an environment whose band leaves the grid's range of f or G.
+
+    A campaign's check (the workflow's and ``pidpipe check-config``'s), not
+    :func:`validate_config`'s: ``pidpipe case`` validates a config whose grid is its one case.
 
     The surrogate is fitted over the grid's bounding box and the optimisation refuses a band
     outside it (:func:`pidpipe.design.optimisation.environment_bounds`), so without this check
     such a config ran the whole campaign and failed only at the optimise step. With
     ``optimisation.external_ceq_table`` the domain is that table's, read later, and nothing is
     checked here.
+
+    Parameters
+    ----------
+    config : dict
+        A validated config (:func:`validate_config`).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the environment, its band, the grid's range and what to change.
     """
     if config["optimisation"].get("external_ceq_table") is not None:
         return

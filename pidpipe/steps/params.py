@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
 from pidpipe.config import validate_config
+from pidpipe.config.schema import check_environments_in_reach
 from pidpipe.config.settings import Budget, VerifySettings
 from pidpipe.config.stages import sorted_keys, stage_config
 from pidpipe.errors import ConfigError
@@ -25,7 +26,8 @@ def workflow_config(raw: dict) -> dict:
     """Validate the workflow's config; also check what only the workflow needs.
 
     Besides :func:`pidpipe.config.validate_config` (whose schema also lists the surrogate
-    methods): an external C_eq table must exist (paths are relative to the working directory),
+    methods): every environment lies in the grid's range
+    (:func:`pidpipe.config.schema.check_environments_in_reach`); an external C_eq table must exist (paths are relative to the working directory),
     so that the run does not fail after the simulations.
 
     Raises
@@ -33,6 +35,7 @@ def workflow_config(raw: dict) -> dict:
     ConfigError
     """
     config = validate_config(raw)
+    check_environments_in_reach(config)
     external = config["optimisation"]["external_ceq_table"]
     if external is not None and not Path(external).is_file():
         raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "

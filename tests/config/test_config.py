@@ -12,7 +12,9 @@ from pidpipe.config import (
     spheres_for_fill,
     validate_config,
 )
+from pidpipe.config.schema import check_environments_in_reach
 from pidpipe.errors import ConfigError
+from pidpipe.steps.params import workflow_config
 
 RAW = yaml.safe_load(DEFAULT_CONFIG_PATH.read_text())
 
@@ -37,10 +39,6 @@ BAD = [
     ("restitution 0", lambda c: c["pairs"][1].update(restitution=0.0), ["pairs[1].restitution", "0.0", "> 0"]),
     ("budget below one cell", lambda c: c["budget"].update(mode="spheres", spheres=2), ["budget", "2 spheres", "lowest fill"]),
     ("band with lo > hi", lambda c: c["environments"][0].update(accel_g=[6, 5]), ["environments[0].accel_g", "[6, 5]", "low <= high"]),
-    ("band beyond the grid's frequencies", lambda c: c["environments"][0].update(freq_hz=[2000, 3000]),
-     ["environments[0].freq_hz", "[2000, 3000]", "[50, 1000] Hz", "extend grid.freq_hz"]),
-    ("band below the grid's accelerations", lambda c: c["grid"].update(accel_g=[5, 10]),
-     ["environments[1].accel_g", "[1, 2]", "[5, 10] g", "extend grid.accel_g"]),
     ("command in a number field", lambda c: c["materials"]["acrylic"].update(density_kg_m3="1180\nshell rm -rf /"),
      ["materials.acrylic.density_kg_m3", "shell rm -rf", "number"]),
     ("command in a material name", lambda c: c["materials"].update({"x; shell touch pwned": c["materials"]["acrylic"]}),
@@ -100,9 +98,35 @@ def test_unknown_surrogate_method_is_refused():
         validate_config(_mutated(lambda c: c["surrogate"].update(method="kriging")))
 
 
+
+OUT_OF_REACH = [
+    ("band beyond the grid's frequencies", lambda c: c["environments"][0].update(freq_hz=[2000, 3000]),
+     ["environments[0].freq_hz", "[2000, 3000]", "[50, 1000] Hz", "extend grid.freq_hz"]),
+    ("band below the grid's accelerations", lambda c: c["grid"].update(accel_g=[5, 10]),
+     ["environments[1].accel_g", "[1, 2]", "[5, 10] g", "extend grid.accel_g"]),
+]
+
+
+@pytest.mark.parametrize("name, change, fragments", OUT_OF_REACH, ids=[b[0] for b in OUT_OF_REACH])
+def test_an_environment_out_of_the_grids_reach_is_refused_before_the_campaign(name, change, fragments):
+    """The workflow's config check and check-config refuse it in one line; validate_config
+    alone does not (``pidpipe case`` validates a config whose grid is its one case)."""
+    raw = _mutated(change)
+    validate_config(raw)
+    for check in (workflow_config, lambda raw: check_environments_in_reach(validate_config(raw))):
+        with pytest.raises(ConfigError) as info:
+            check(raw)
+        message = str(info.value)
+        assert "\n" not in message
+        for fragment in fragments:
+            assert fragment in message, f"{fragment!r} missing from: {message}"
+
+
 def test_an_external_table_lifts_the_grid_reach_check():
     """With optimisation.external_ceq_table the surrogate's domain is that table's: the grid's
     range says nothing about it (the file's existence is checked by the workflow)."""
     raw = _mutated(lambda c: (c["environments"][0].update(freq_hz=[2000, 3000]),
                               c["optimisation"].update(external_ceq_table="table.csv")))
-    assert validate_config(raw)["environments"][0]["freq_hz"] == [2000, 3000]
+    config = validate_config(raw)
+    check_environments_in_reach(config)
+    assert config["environments"][0]["freq_hz"] == [2000, 3000]
