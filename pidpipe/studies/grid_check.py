@@ -42,7 +42,18 @@ GRID_COLUMNS: tuple[str, ...] = (
 
 
 def paired_difference(liggghts: CaseRecord, dem: CaseRecord) -> dict:
-    """The cell-by-cell difference of two records of a case (cells matched by packing seed).
+    """The cell-by-cell difference of two records of a case (cells matched by packing seed):
+    :func:`paired_cell_difference` of their ``cells``."""
+    return paired_cell_difference(liggghts.cells or (), dem.cells or ())
+
+
+def paired_cell_difference(liggghts_cells, dem_cells) -> dict:
+    """The cell-by-cell difference of two lists of cells of a case (matched by packing seed).
+
+    Parameters
+    ----------
+    liggghts_cells, dem_cells : sequence of dict
+        Each cell's ``seed`` and ``ceq_cell_ns_m`` (a record's ``cells``).
 
     Returns
     -------
@@ -52,11 +63,11 @@ def paired_difference(liggghts: CaseRecord, dem: CaseRecord) -> dict:
         mean LIGGGHTS C_eq of those cells), ``z_paired`` and ``paired_agree``; NaN (and False)
         with fewer than 2 cells in both.
     """
-    def by_seed(record: CaseRecord) -> dict:
-        return {int(cell["seed"]): float(cell["ceq_cell_ns_m"]) for cell in record.cells or ()
+    def by_seed(cells) -> dict:
+        return {int(cell["seed"]): float(cell["ceq_cell_ns_m"]) for cell in cells
                 if "seed" in cell and math.isfinite(float(cell.get("ceq_cell_ns_m", math.nan)))}
 
-    left, right = by_seed(liggghts), by_seed(dem)
+    left, right = by_seed(liggghts_cells), by_seed(dem_cells)
     seeds = sorted(set(left) & set(right))
     nan = math.nan
     if len(seeds) < 2:
