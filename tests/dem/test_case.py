@@ -17,6 +17,7 @@ from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case, start_dem_case
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.adaptive import run_to_target
+from pidpipe.measurement.case_record import RECORD_VERSION, CaseRecord
 from pidpipe.steps.cases import case_runner, failed_record
 from tests.conftest import short_config
 
@@ -73,6 +74,16 @@ def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
     assert len(dem.cycles["dissipated_j"]) == len(liggghts.cycles["dissipated_j"]) == 30
     json.loads(dem.to_json())
     assert "numba-dem" in format_result(dem)
+
+
+def test_both_engines_return_a_case_record_that_reads_back_from_its_json(both, tmp_path):
+    for record, name in zip(both, ("liggghts", "dem")):
+        assert isinstance(record, CaseRecord) and record.record_version == RECORD_VERSION
+        path = record.write(tmp_path / f"{name}.json")
+        back = CaseRecord.read(path)
+        assert back.to_json() == path.read_text() == record.to_json()
+        assert back.engine_name == back.fidelity.engine == name
+        assert back.fidelity.seeds == [back.fidelity.seed] and back.engine_cpu_s > 0
 
 
 def test_both_engines_give_the_same_ceq_within_their_errors(both):
