@@ -34,7 +34,7 @@ def main() -> None:
             start = time.perf_counter()
             record = run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / case.case_id)
             pipeline = time.perf_counter() - start
-            engine = record["engine"]
+            engine = record.engine
             lines.append(
                 f"| {case.case_id} | {engine['steps']} | {pipeline:.2f} | {engine['liggghts_wall_time_s']:.2f} | "
                 f"{engine['liggghts_loop_time_s']:.2f} | {engine['steps'] / engine['liggghts_loop_time_s']:.3g} | "

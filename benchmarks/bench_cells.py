@@ -94,12 +94,12 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
         def cpu_of_run(case, packings, workdir):
             run_dem_case(ShakeSettings.from_config(config), case, packings)      # compiled
             return min(run_dem_case(ShakeSettings.from_config(config), case, packings)
-                       ["engine"]["cpu_time_s"] for _ in range(DEM_REPETITIONS))
+                       .engine["cpu_time_s"] for _ in range(DEM_REPETITIONS))
         runs = DEM_COST_RUNS
     else:
         def cpu_of_run(case, packings, workdir):
             return run_case(ShakeSettings.from_config(config), case, packings,
-                            workdir)["engine"]["liggghts_cpu_time_s"]
+                            workdir).engine["liggghts_cpu_time_s"]
         runs = COST_RUNS
     command = ("python benchmarks/bench_cells.py --cost" + (" --engine dem" if engine == "dem" else "")
                + (" --pours-only" if pours_only else ""))
@@ -164,17 +164,17 @@ def main() -> None:
             together = run_case(ShakeSettings.from_config(config), case, packings, Path(scratch) / f"together_{freq:g}")
             alone = [run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
                      for k, packing in enumerate(packings)]
-            cpu_alone = sum(r["engine"]["liggghts_cpu_time_s"] for r in alone)
-            cpu_together = together["engine"]["liggghts_cpu_time_s"]
-            z = [(cell["ceq_cell_ns_m"] - single["ceq_cell_ns_m"])
-                 / math.hypot(cell["ceq_cell_sem_ns_m"], single["ceq_cell_sem_ns_m"])
-                 for cell, single in zip(together["cells"][1:], alone[1:])]
-            cycle = together["ceq_cell_cycle_sem_ns_m"]
-            between = together["ceq_cell_between_cells_sem_ns_m"]
+            cpu_alone = sum(r.engine["liggghts_cpu_time_s"] for r in alone)
+            cpu_together = together.engine["liggghts_cpu_time_s"]
+            z = [(cell["ceq_cell_ns_m"] - single.ceq_cell_ns_m)
+                 / math.hypot(cell["ceq_cell_sem_ns_m"], single.ceq_cell_sem_ns_m)
+                 for cell, single in zip(together.cells[1:], alone[1:])]
+            cycle = together.ceq_cell_cycle_sem_ns_m
+            between = together.ceq_cell_between_cells_sem_ns_m
             lines.append(f"| {freq:g} | {cpu_together:.1f} | {cpu_alone:.1f} | "
-                         f"{cpu_together / cpu_alone:.2f} | {together['ceq_cell_ns_m']:.4g} | "
-                         f"{cycle:.2g} ({cycle / together['ceq_cell_ns_m']:.1%}) | "
-                         f"{between:.2g} ({between / together['ceq_cell_ns_m']:.1%}) | "
+                         f"{cpu_together / cpu_alone:.2f} | {together.ceq_cell_ns_m:.4g} | "
+                         f"{cycle:.2g} ({cycle / together.ceq_cell_ns_m:.1%}) | "
+                         f"{between:.2g} ({between / together.ceq_cell_ns_m:.1%}) | "
                          f"{between / cycle:.2f} | {np.max(np.abs(z)):.2f} |")
             print(lines[-1], flush=True)
     lines += ["", f"{ACCEL_G:g} g, {FILL_PCT:g} % fill, default fidelity; replicate packings "

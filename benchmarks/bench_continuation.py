@@ -79,40 +79,40 @@ def main() -> None:
              "|---|---|---|---|---|"]
     totals = {}
     for label, cases in records.items():
-        cpu = sum(r["target"]["cpu_time_s"] for r in cases)
-        planned = sum(r["target"]["planned_cpu_s"] for r in cases)
-        reached = sum(bool(r["target"]["reached"]) for r in cases)
+        cpu = sum(r.target["cpu_time_s"] for r in cases)
+        planned = sum(r.target["planned_cpu_s"] for r in cases)
+        reached = sum(bool(r.target["reached"]) for r in cases)
         totals[label] = cpu
         lines.append(f"| {label} | {cpu:.1f} | {planned:.1f} | {reached} of {len(cases)} | "
-                     f"{cpu_by_kind(cases)} |")
+                     f"{cpu_by_kind([r.to_dict() for r in cases])} |")
     same_plan = [(mine, theirs) for mine, theirs in zip(records["continued"], records["replayed"])
                  if _plan(mine) == _plan(theirs)]
-    same = sum(mine["ceq_cell_ns_m"] == theirs["ceq_cell_ns_m"]
-               and mine["ceq_cell_sem_ns_m"] == theirs["ceq_cell_sem_ns_m"]
-               and mine["flags"] == theirs["flags"] for mine, theirs in same_plan)
+    same = sum(mine.ceq_cell_ns_m == theirs.ceq_cell_ns_m
+               and mine.ceq_cell_sem_ns_m == theirs.ceq_cell_sem_ns_m
+               and mine.flags == theirs.flags for mine, theirs in same_plan)
     lines += ["", f"continued / replayed engine CPU: {totals['continued'] / totals['replayed']:.2f} "
               f"({totals['replayed'] - totals['continued']:.1f} s saved); {len(same_plan)} cases "
               f"took the same steps both ways, {same} of them with the same C_eq, SEM and flags "
               "to the last bit", "",
               "| case | continued: steps, CPU s, SEM % | replayed: steps, CPU s, SEM % |", "|---|---|---|"]
     for mine, theirs in zip(records["continued"], records["replayed"]):
-        lines.append(f"| {mine['case_id']} | {_steps(mine)} | {_steps(theirs)} |")
+        lines.append(f"| {mine.case_id} | {_steps(mine)} | {_steps(theirs)} |")
     command = f"python benchmarks/bench_continuation.py {args.campaign}"
     if args.cases:
         command += " --cases " + " ".join(args.cases)
     append("Continuing the DEM's runs for more cycles", command, lines)
 
 
-def _plan(record: dict) -> list:
-    """A case's steps: kind, cells added and cycles of each."""
-    return [(step["kind"], step["new_cells"], step["cycles"]) for step in record["target"]["steps"]]
+def _plan(record) -> list:
+    """A case's steps (a CaseRecord's): kind, cells added and cycles of each."""
+    return [(step["kind"], step["new_cells"], step["cycles"]) for step in record.target["steps"]]
 
 
-def _steps(record: dict) -> str:
-    target = record["target"]
+def _steps(record) -> str:
+    target = record.target
     kinds = "+".join(step["kind"] for step in target["steps"]) or "pilot only"
     return (f"{kinds}, {target['cpu_time_s']:.1f}, "
-            f"{100 * record['ceq_cell_sem_ns_m'] / record['ceq_cell_ns_m']:.1f}")
+            f"{100 * record.ceq_cell_sem_ns_m / record.ceq_cell_ns_m:.1f}")
 
 
 if __name__ == "__main__":

@@ -139,7 +139,7 @@ def time_liggghts(config: dict, packing, n_cells: int, cycles: int, workdir: Pat
         record = run_case(ShakeSettings.from_config(config),
                           CaseSpec(FREQ_HZ, ACCEL_G, packing.fill_pct),
                           [packing] * cells, workdir / f"run{run}")
-        engine = record["engine"]
+        engine = record.engine
         steps = engine["steps"]
         particle_steps += packing.n_spheres * cells * engine["steps"]
         seconds += engine["liggghts_loop_time_s"]

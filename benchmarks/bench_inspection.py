@@ -39,9 +39,9 @@ CASES = ((500.0, 5.0), (1000.0, 10.0))
 
 def _closure(record: dict) -> float:
     """The phase profile's dissipation over a cycle over the record's E_d."""
-    profile = record["motion"]["profile"]
+    profile = record.motion["profile"]
     return (sum(profile["dissipation_w"]["mean"]) / len(profile["phase"]) * profile["period_s"]
-            / record["ed_cycle_mean_j"])
+            / record.ed_cycle_mean_j)
 
 
 def main_dem() -> None:
@@ -62,13 +62,13 @@ def main_dem() -> None:
             run_dem_case(ShakeSettings.from_config(config), case, packings)     # compiles
             cpu = {"plain": [], "motion": []}
             for _ in range(DEM_REPETITIONS):
-                cpu["plain"].append(run_dem_case(ShakeSettings.from_config(plain), case, packings)["engine"]["cpu_time_s"])
+                cpu["plain"].append(run_dem_case(ShakeSettings.from_config(plain), case, packings).engine["cpu_time_s"])
                 seen = run_dem_case(ShakeSettings.from_config(config), case, packings)
-                cpu["motion"].append(seen["engine"]["cpu_time_s"])
+                cpu["motion"].append(seen.engine["cpu_time_s"])
             best = {k: min(v) for k, v in cpu.items()}
             lines.append(f"| {case.case_id}, {cells} cells | {best['plain']:.2f} | {best['motion']:.2f} "
-                         f"({best['motion'] / best['plain']:.3f}) | {_closure(seen):.3f} | {seen['regime']} "
-                         f"({', '.join(seen['motion']['cell_regimes'])}) |")
+                         f"({best['motion'] / best['plain']:.3f}) | {_closure(seen):.3f} | {seen.regime} "
+                         f"({', '.join(seen.motion['cell_regimes'])}) |")
             print(lines[-1], flush=True)
     lines += ["", f"CPU = the DEM case's process CPU time (run_dem_case, whole case), the smaller of "
               f"{DEM_REPETITIONS} interleaved repetitions; ratio against the plain run of the same "
@@ -93,22 +93,22 @@ def main() -> None:
             case = CaseSpec(freq, accel, 50.0)
             cpu = {"plain": [], "motion": [], "movie": []}
             for repetition in range(REPETITIONS):
-                cpu["plain"].append(run_case(ShakeSettings.from_config(plain), case, packings, scratch / "p")["engine"]["liggghts_cpu_time_s"])
+                cpu["plain"].append(run_case(ShakeSettings.from_config(plain), case, packings, scratch / "p").engine["liggghts_cpu_time_s"])
                 seen = run_case(ShakeSettings.from_config(config), case, packings, scratch / "m")
-                cpu["motion"].append(seen["engine"]["liggghts_cpu_time_s"])
+                cpu["motion"].append(seen.engine["liggghts_cpu_time_s"])
                 start = time.perf_counter()
                 movie = run_case(ShakeSettings.from_config(config), case, packings, scratch / "v", movie=MovieSettings(20, 3),
                                  movie_dir=scratch / "movie")
                 movie_wall = time.perf_counter() - start
-                cpu["movie"].append(movie["engine"]["liggghts_cpu_time_s"])
+                cpu["movie"].append(movie.engine["liggghts_cpu_time_s"])
             best = {k: min(v) for k, v in cpu.items()}
             size = sum(p.stat().st_size for p in (scratch / "movie").iterdir()) / 1e6
             closure = _closure(seen)
             lines.append(
                 f"| {case.case_id}, {cells} cells | {best['plain']:.2f} | {best['motion']:.2f} "
                 f"({best['motion'] / best['plain']:.3f}) | {best['movie']:.2f} ({best['movie'] / best['plain']:.3f}) | "
-                f"{movie['movie']['frames']} | {movie_wall:.2f} | {size:.2f} | {closure:.3f} | {seen['regime']} "
-                f"({', '.join(seen['motion']['cell_regimes'])}) |")
+                f"{movie.movie['frames']} | {movie_wall:.2f} | {size:.2f} | {closure:.3f} | {seen.regime} "
+                f"({', '.join(seen.motion['cell_regimes'])}) |")
     lines.append("")
     lines.append(f"CPU = LIGGGHTS' CPU time, the smaller of {REPETITIONS} interleaved repetitions; "
                  "ratios against the plain run of the same case. Default fidelity otherwise.")

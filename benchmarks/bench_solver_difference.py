@@ -24,7 +24,7 @@ cycle, the slip the half-step offset integrates.
 Every variant's cell C_eq is its mean E_d over the same cycles, the configured transient's
 end to the run's end (no MSER choice, so the windows are the same). The paired difference of a
 variant is the mean over the cells of C_variant - C_liggghts over the mean LIGGGHTS C_eq, with
-its standard error over the cells (:func:`pidpipe.studies.grid_check.paired_difference`, the
+its standard error over the cells (:func:`pidpipe.studies.grid_check.paired_cell_difference`, the
 grid check's own test): the packings' spread cancels, what is left is the cycle noise and the
 divergence of chaotic cells.
 
@@ -54,7 +54,7 @@ from pidpipe.dem.from_scene import dem_scene
 from pidpipe.dem.pouring import replicate_packings
 from pidpipe.liggghts.shake import run_case
 from pidpipe.physics.equivalent_damping import ceq_from_energy
-from pidpipe.studies.grid_check import paired_difference
+from pidpipe.studies.grid_check import paired_cell_difference
 
 VARIANTS = {
     # name: (engine, dt / t_R, mesh subdivisions or DEM walls)
@@ -80,12 +80,12 @@ def cell_series(engine: str, settings: ShakeSettings, case: CaseSpec, packings: 
     started = time.process_time()
     if engine == "liggghts":
         record = run_case(settings, case, packings, workdir, mesh_subdivisions=option)
-        return (np.array([cell["dissipated_j"] for cell in record["cells"]]),
-                record["engine"]["liggghts_cpu_time_s"])
+        return (np.array([cell["dissipated_j"] for cell in record.cells]),
+                record.engine["liggghts_cpu_time_s"])
     if engine == "dem":
         record = run_dem_case(settings, case, packings)
-        return (np.array([cell["dissipated_j"] for cell in record["cells"]]),
-                record["engine"]["cpu_time_s"])
+        return (np.array([cell["dissipated_j"] for cell in record.cells]),
+                record.engine["cpu_time_s"])
     scene = dem_scene(CellScene.of(settings), case.freq_hz, [case.accel_g] * len(packings))
     scene, state, ws = reference.start(scene, np.stack([p.centres() for p in packings]))
     out = reference.run_cycles(scene, state, ws, cycles, walls=option)
@@ -148,9 +148,9 @@ def main() -> None:
                 if name == REFERENCE:
                     diff, z = "reference", ""
                 else:
-                    paired = paired_difference(
-                        {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[REFERENCE])]},
-                        {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, values)]})
+                    paired = paired_cell_difference(
+                        [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[REFERENCE])],
+                        [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, values)])
                     diff = (f"{100 * paired['paired_rel_diff']:+.3f} +- "
                             f"{100 * paired['paired_rel_diff_sem']:.3f} %")
                     z = f"{paired['z_paired']:+.1f}"
@@ -161,9 +161,9 @@ def main() -> None:
                 viblin = next((v for v in (f"dem_viblin{suffix}", f"dem{suffix}") if v in ceq), None)
                 if not (exact and viblin):
                     continue
-                paired = paired_difference(
-                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[exact])]},
-                    {"cells": [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[viblin])]})
+                paired = paired_cell_difference(
+                    [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[exact])],
+                    [{"seed": s, "ceq_cell_ns_m": c} for s, c in zip(seeds, ceq[viblin])])
                 config = load_config()
                 config["fidelity"]["timestep_rayleigh_fraction"] = fraction
                 steps = CellScene.of(ShakeSettings.from_config(config)).timestep(freq).steps_per_cycle

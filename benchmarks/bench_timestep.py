@@ -70,22 +70,22 @@ def main() -> None:
                 cpu_by_fraction[fraction] += records[fraction]["engine"]["liggghts_cpu_time_s"]
             reference = records[fractions[0]]
             for fraction, record in records.items():
-                value, sem = record["ceq_cell_ns_m"], record["ceq_cell_sem_ns_m"]
+                value, sem = record.ceq_cell_ns_m, record.ceq_cell_sem_ns_m
                 text = "reference"
                 if fraction != fractions[0]:
                     diff = mean_of_cells(
                         np.array([a["ceq_cell_ns_m"] - b["ceq_cell_ns_m"]
-                                  for a, b in zip(record["cells"], reference["cells"])]),
+                                  for a, b in zip(record.cells, reference.cells)]),
                         np.array([math.hypot(a["ceq_cell_sem_ns_m"], b["ceq_cell_sem_ns_m"])
-                                  for a, b in zip(record["cells"], reference["cells"])]))
-                    error = diff.mean / reference["ceq_cell_ns_m"]
-                    error_sem = diff.sem / reference["ceq_cell_ns_m"]
+                                  for a, b in zip(record.cells, reference.cells)]))
+                    error = diff.mean / reference.ceq_cell_ns_m
+                    error_sem = diff.sem / reference.ceq_cell_ns_m
                     worst[fraction] = max(worst[fraction], abs(error) + error_sem)
                     text = f"{100 * error:+.2f} +- {100 * error_sem:.2f} %"
-                flags = f" ({', '.join(record['flags'])})" if record["flags"] else ""
+                flags = f" ({', '.join(record.flags)})" if record.flags else ""
                 lines.append(f"| {freq:g} Hz / {accel:g} g / {fill:g} % | {fraction} | "
                              f"{value:.4g} +- {sem:.2g}{flags} | {text} | "
-                             f"{record['engine']['liggghts_cpu_time_s']:.1f} |")
+                             f"{record.engine['liggghts_cpu_time_s']:.1f} |")
                 print(lines[-1], flush=True)
         lines += ["", f"| dt / t_R | sphere-wall e (0.70) | sphere-sphere e (0.70) | CPU x {fractions[0]} t_R | worst abs(error) + SEM |",
                   "|---|---|---|---|---|"]

@@ -47,7 +47,7 @@ def elastic_lines(scratch: Path, packing) -> list[str]:
     cfg["fidelity"].update(transient_cycles=2, transient_min_time_s=0.0, measured_cycles=60, friction=False)
     for pair in cfg["pairs"]:
         pair["restitution"] = 1.0
-    cycles = run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 50), packing, scratch / "elastic")["cycles"]
+    cycles = run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 50), packing, scratch / "elastic").cycles
     dissipated, exchanged = np.array(cycles["dissipated_j"][2:]), np.array(cycles["gross_work_j"][2:])
     return [f"e = 1, mu = 0, 500 Hz, 5 g, 11 spheres, 60 cycles: mean E_d / mean work exchanged per "
             f"cycle = {dissipated.mean() / exchanged.mean():+.4%}; per-cycle std "
@@ -74,8 +74,8 @@ def steady_lines(scratch: Path, packing) -> list[str]:
         if minimum is not None:
             cfg["fidelity"]["transient_min_time_s"] = minimum
         record = run_case(ShakeSettings.from_config(cfg), CaseSpec(1000, 5, 50), packing, scratch / "steady")
-        lines.append(f"1000 Hz, 5 g, 50 %, {label}: {record['fidelity']['transient_cycles']} transient "
-                     f"cycles, drift {record['energy_drift_fraction']:.3f}, status {record['status']}")
+        lines.append(f"1000 Hz, 5 g, 50 %, {label}: {record.fidelity['transient_cycles']} transient "
+                     f"cycles, drift {record.energy_drift_fraction:.3f}, status {record.status}")
     return lines + [""]
 
 

@@ -25,6 +25,7 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
 from pidpipe.config.settings import Sampling
 from pidpipe.measurement.adaptive import MAX_STEPS, components_of
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.allocation import Limits, plan_next_step
 from pidpipe.measurement.cost_model import load_cost_model
 
@@ -42,7 +43,7 @@ def predict(record: dict, target: float, config: dict) -> tuple[float, float, bo
 
     limits = Limits(int(fidelity["max_cells_per_case"]), int(fidelity["max_measured_cycles"]),
                     float(fidelity["max_case_cpu_s"]), 24)
-    components = components_of(record, record["target"]["measured_cycles"])
+    components = components_of(CaseRecord.from_dict(record), record["target"]["measured_cycles"])
     cells, cycles = int(fidelity["cells_per_run"]), int(fidelity["measured_cycles"])
     spent = run_cpu_s(cells, cycles)
     value = abs(components.value)
@@ -73,7 +74,7 @@ def main() -> None:
     lines += ["", "| case | measured CPU s | planned CPU s | rel. SEM | packing std / C_eq | cell SEM over 40 cycles / C_eq |",
               "|---|---|---|---|---|---|"]
     for r in records:
-        c = components_of(r)
+        c = components_of(CaseRecord.from_dict(r))
         lines.append(f"| {r['case_id']} | {r['target']['cpu_time_s']:.1f} | {r['target']['planned_cpu_s']:.1f} | "
                      f"{r['ceq_cell_sem_ns_m'] / r['ceq_cell_ns_m']:.1%} | "
                      f"{np.sqrt(c.packing_var) / c.value:.1%} | {np.sqrt(c.cycle_noise_var / 40) / c.value:.1%} |")

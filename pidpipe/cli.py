@@ -88,7 +88,6 @@ def run_case_command(args: argparse.Namespace) -> int:
     from pidpipe.config import load_config
     from pidpipe.config.settings import PourSettings, ShakeSettings
     from pidpipe.dem.pouring import pour_with_engine
-    from pidpipe.liggghts.shake import write_record
     from pidpipe.steps.cases import measure_case
 
     config = load_config(args.config)
@@ -124,48 +123,49 @@ def run_case_command(args: argparse.Namespace) -> int:
     record = measure_case(shaking, case, packings, args.workdir / case.case_id, pouring,
                           args.workdir / "pool", movie=movie, movie_dir=movie_dir)
     if args.record:
-        write_record(record, args.record)
+        record.write(args.record)
     print(format_result(record))
     if movie is not None:
-        print(f"  movie           : {record['movie']['frames']} frames over the last "
-              f"{record['movie']['cycles']} cycles in {movie_dir / 'movie.pvd'} (open it in ParaView; "
+        print(f"  movie           : {record.movie['frames']} frames over the last "
+              f"{record.movie['cycles']} cycles in {movie_dir / 'movie.pvd'} (open it in ParaView; "
               "Glyph the spheres by radius_m)")
     return 0
 
 
-def format_result(record: dict) -> str:
-    """A few readable lines: C_eq with its standard error, the checks and the fidelity."""
-    fid = record["fidelity"]
+def format_result(record) -> str:
+    """A few readable lines of a :class:`~pidpipe.measurement.case_record.CaseRecord`: C_eq with
+    its standard error, the checks and the fidelity."""
+    fid = record.fidelity
     lines = [
-        f"case {record['case_id']}: {record['n_spheres']} spheres, status {record['status']}"
-        + (f" ({', '.join(record['flags'])})" if record["flags"] else ""),
-        f"  C_eq per cell   = {record['ceq_cell_ns_m']:.4g} +- {record['ceq_cell_sem_ns_m']:.2g} N s/m",
-        f"  C_eq coupon     = {record['ceq_coupon_ns_m']:.4g} +- {record['ceq_coupon_sem_ns_m']:.2g} N s/m",
-        f"  E_d per cycle   = {record['ed_cycle_mean_j']:.4g} +- {record['ed_cycle_sem_j']:.2g} J "
-        f"(cycle-to-cycle std {record['ed_cycle_std_j']:.2g} J, lag-1 autocorrelation "
-        f"{record['ed_lag1_autocorrelation']:.2f})",
-        f"  steady state    : transient {fid['transient_cycles']} cycles (configured "
-        f"{fid['transient_cycles_configured']}, MSER {record['detected_transient_cycles']}); "
-        f"stored-energy drift {100 * record['energy_drift_fraction']:.1f} % of the dissipation; "
-        f"halves p = {record['halves_p_value']:.2g}; regime {record['regime']}"
-        + (f" (cells: {_regime_split(record['motion']['cell_regimes'])})" if record.get("motion") else ""),
-        f"  fidelity        : dt = {fid['timestep_s']:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
-        f"{fid['transient_cycles']} transient + {record['n_cycles']} measured cycles, "
-        f"E scale {fid['youngs_modulus_scale']:g}, seed {fid['seed']}",
-        f"  engine          : {record['solver']} ({record['engine']['version'].split(',')[0]}), "
-        f"{record['engine']['wall_time_s']:.1f} s; total {record['wall_time_s']:.1f} s",
+        f"case {record.case_id}: {record.n_spheres} spheres, status {record.status}"
+        + (f" ({', '.join(record.flags)})" if record.flags else ""),
+        f"  C_eq per cell   = {record.ceq_cell_ns_m:.4g} +- {record.ceq_cell_sem_ns_m:.2g} N s/m",
+        f"  C_eq coupon     = {record.ceq_coupon_ns_m:.4g} +- {record.ceq_coupon_sem_ns_m:.2g} N s/m",
+        f"  E_d per cycle   = {record.ed_cycle_mean_j:.4g} +- {record.ed_cycle_sem_j:.2g} J "
+        f"(cycle-to-cycle std {record.ed_cycle_std_j:.2g} J, lag-1 autocorrelation "
+        f"{record.ed_lag1_autocorrelation:.2f})",
+        f"  steady state    : transient {fid.transient_cycles} cycles (configured "
+        f"{fid['transient_cycles_configured']}, MSER {record.detected_transient_cycles}); "
+        f"stored-energy drift {100 * record.energy_drift_fraction:.1f} % of the dissipation; "
+        f"halves p = {record.halves_p_value:.2g}; regime {record.regime}"
+        + (f" (cells: {_regime_split(record.motion['cell_regimes'])})" if record.motion else ""),
+        f"  fidelity        : dt = {fid.timestep_s:.3g} s ({fid['rayleigh_fraction']:.3f} Rayleigh times), "
+        f"{fid.transient_cycles} transient + {record.n_cycles} measured cycles, "
+        f"E scale {fid['youngs_modulus_scale']:g}, seed {fid.seed}",
+        f"  engine          : {record.solver} ({record.engine.version.split(',')[0]}), "
+        f"{record.engine.wall_time_s:.1f} s; total {record.wall_time_s:.1f} s",
     ]
-    target = record.get("target")
+    target = record.target
     if target:
         lines.insert(2, f"  target          : SEM <= {100 * target['relative_sem']:g} % of C_eq "
                         f"{'reached' if target['reached'] else 'NOT reached (a cap stopped it)'} with "
                         f"{target['cells']} cells x {target['measured_cycles']} measured cycles in "
                         f"{len(target['runs'])} run(s), engine CPU {target['cpu_time_s']:.1f} s")
-    if record.get("cells"):
-        lines.insert(3, f"  {len(record['cells'])} cells         : SEM per cell from the cycles "
-                        f"{record['ceq_cell_cycle_sem_ns_m']:.2g}, from the spread between cells "
-                        f"{record['ceq_cell_between_cells_sem_ns_m']:.2g} N s/m (one two-level "
-                        f"estimate of both is reported); seeds {', '.join(str(s) for s in fid['seeds'])}")
+    if record.cells:
+        lines.insert(3, f"  {len(record.cells)} cells         : SEM per cell from the cycles "
+                        f"{record.ceq_cell_cycle_sem_ns_m:.2g}, from the spread between cells "
+                        f"{record.ceq_cell_between_cells_sem_ns_m:.2g} N s/m (one two-level "
+                        f"estimate of both is reported); seeds {', '.join(str(s) for s in fid.seeds)}")
     return "\n".join(lines)
 
 

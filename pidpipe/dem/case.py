@@ -37,7 +37,8 @@ from pidpipe.dem.contacts import DISSIPATION_TERMS
 from pidpipe.dem.from_scene import dem_scene
 from pidpipe.dem.run import CONTACT_TYPES, SOLVER_NAME, CycleRun, start
 from pidpipe.liggghts.parsing import CycleSeries
-from pidpipe.liggghts.shake import RECORD_VERSION, checked_packing_list, containment_flags
+from pidpipe.liggghts.shake import checked_packing_list, containment_flags
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.inspection import motion_record
 from pidpipe.measurement.run_record import fidelity_record
@@ -53,7 +54,7 @@ error of the trapezoidal work of the elastic forces; measured well below 1e-3 of
 
 
 def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
-                 workdir: str | Path | None = None) -> dict:
+                 workdir: str | Path | None = None) -> CaseRecord:
     """Shake one case in the compiled DEM and return its record.
 
     Parameters
@@ -68,7 +69,7 @@ def run_dem_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Se
 
     Returns
     -------
-    dict
+    CaseRecord
         The case record.
     """
     return start_dem_case(settings, case, packings, workdir).record
@@ -100,7 +101,7 @@ class DemCaseRun:
 
     Attributes
     ----------
-    record : dict
+    record : CaseRecord
         The record of the run so far.
     """
 
@@ -114,7 +115,7 @@ class DemCaseRun:
         scene, state, ws = start(scene, np.stack([packing.centres() for packing in self.packings]))
         self.scene = scene
         self.run = CycleRun(scene, state, ws, settings.motion)
-        self.record: dict = {}
+        self.record: CaseRecord | None = None
         self._go_on(settings, started, cpu_started)
 
     @property
@@ -122,7 +123,7 @@ class DemCaseRun:
         """The case's configured transient, cycles."""
         return self.settings.sampling.transient_cycles_at(self.case.freq_hz)
 
-    def extend(self, measured_cycles: int) -> dict:
+    def extend(self, measured_cycles: int) -> CaseRecord:
         """Go on to ``measured_cycles`` measured cycles (more than the run has) and return the record.
 
         Raises
@@ -139,22 +140,22 @@ class DemCaseRun:
             self.settings, sampling=dataclasses.replace(sampling, measured_cycles=int(measured_cycles)))
         return self._go_on(settings, started, cpu_started)
 
-    def _go_on(self, settings: ShakeSettings, started: float, cpu_started: float) -> dict:
+    def _go_on(self, settings: ShakeSettings, started: float, cpu_started: float) -> CaseRecord:
         before = self.run.n_cycles
         self.run.run(self.configured_transient + settings.sampling.measured_cycles - before)
         self.settings = settings
-        self.record = case_record(settings, self.case, self.packings, self.cell_scene, self.scene,
-                                  self.run.cycles(), self.run.motion())
+        record = case_record(settings, self.case, self.packings, self.cell_scene, self.scene,
+                             self.run.cycles(), self.run.motion())
         wall_time, cpu_time = time.perf_counter() - started, time.process_time() - cpu_started
-        self.record["engine"] = engine_record(wall_time, cpu_time,
-                                              (self.run.n_cycles - before) * self.scene.steps_per_cycle)
-        self.record["engine"]["continued_from_cycles"] = before
-        self.record["wall_time_s"] = wall_time
+        engine = engine_record(wall_time, cpu_time,
+                               (self.run.n_cycles - before) * self.scene.steps_per_cycle)
+        self.record = record.with_(engine={**engine, "continued_from_cycles": before},
+                                   wall_time_s=wall_time)
         return self.record
 
 
 def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing],
-                cell_scene: CellScene, scene, cycles: dict, motion) -> dict:
+                cell_scene: CellScene, scene, cycles: dict, motion) -> CaseRecord:
     """The record of a DEM case from its run's ledgers (:meth:`CycleRun.cycles`) and sampled
     motion (or None); ``engine`` and ``wall_time_s`` are the caller's to add."""
     k = len(packings)
@@ -180,28 +181,27 @@ def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing]
     flags = (containment_flags(cell_scene, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
              + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else []))
     measured = slice(transient, None)
-    return {
-        "record_version": RECORD_VERSION,
-        "solver": SOLVER_NAME,
-        "case_id": case.case_id,
-        "freq_hz": case.freq_hz,
-        "accel_g": case.accel_g,
-        "fill_pct": case.fill_pct,
-        "replicate": case.replicate,
-        "n_spheres": packings[0].n_spheres,
-        "status": "flagged" if flags else "ok",
-        "flags": flags,
+    return CaseRecord(
+        solver=SOLVER_NAME,
+        case_id=case.case_id,
+        freq_hz=case.freq_hz,
+        accel_g=case.accel_g,
+        fill_pct=case.fill_pct,
+        replicate=case.replicate,
+        n_spheres=packings[0].n_spheres,
+        status="flagged" if flags else "ok",
+        flags=flags,
         **summary,
         **steady.as_record(),
         **inspection,
-        "wall_work_cycle_mean_j": float(series.wall_work_j[measured].mean()) / k,
-        "ledger_mismatch_of_gross_work": mismatch,
-        "cycles": series.as_record(),
-        "fidelity": fidelity_record(settings, cell_scene.timestep(case.freq_hz), transient,
-                                    [packing.seed for packing in packings], ENGINE_NAME,
-                                    configured_transient, packings[0].pile_height_m,
-                                    pour_engines(packings)),
-        "dem": {
+        wall_work_cycle_mean_j=float(series.wall_work_j[measured].mean()) / k,
+        ledger_mismatch_of_gross_work=mismatch,
+        cycles=series.as_record(),
+        fidelity=fidelity_record(settings, cell_scene.timestep(case.freq_hz), transient,
+                                 [packing.seed for packing in packings], ENGINE_NAME,
+                                 configured_transient, packings[0].pile_height_m,
+                                 pour_engines(packings)),
+        dem={
             "balance_dissipated_j": balance.sum(axis=0).tolist(),
             "balance_cycle_mean_j": float(balance[:, measured].mean()),
             "balance_mismatch_fraction": float(
@@ -211,7 +211,7 @@ def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing]
                 f"{term}_{ctype}_j": float(cycles[f"{term}_{ctype}_j"][:, measured].mean())
                 for term in DISSIPATION_TERMS for ctype in CONTACT_TYPES},
         },
-    }
+    )
 
 
 def summed_series(cycles: dict) -> CycleSeries:

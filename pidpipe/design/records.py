@@ -3,10 +3,8 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
-from pathlib import Path
 from typing import Iterable
 
 import numpy as np
@@ -14,36 +12,32 @@ import pandas as pd
 
 from pidpipe.cases import CaseSpec, regime
 from pidpipe.design.ceq_table import COORDINATE_COLUMNS, signal_quality
-from pidpipe.errors import ParseError
+from pidpipe.measurement.case_record import CaseRecord
 
 #: Statuses a table row can have, from the most to the least usable.
 _STATUS_ORDER = ("ok", "flagged", "failed", "missing")
 
-#: (table column, where it is in a record): values averaged over replicates with their SEM.
+#: (value, its SEM): record attributes (and table columns) averaged over replicates.
 _MEAN_WITH_SEM = (
     ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m"),
     ("ceq_cell_ns_m", "ceq_cell_sem_ns_m"),
     ("ed_cycle_mean_j", "ed_cycle_sem_j"),
 )
 
-#: table column -> key path in a record, for settings that are the same for every replicate.
-_SETTING_COLUMNS = {
-    "n_spheres": ("n_spheres",),
-    "dt_s": ("fidelity", "timestep_s"),
-    "dt_rayleigh_fraction": ("fidelity", "rayleigh_fraction"),
-    "steps_per_cycle": ("fidelity", "steps_per_cycle"),
-    "youngs_modulus_scale": ("fidelity", "youngs_modulus_scale"),
-    "transient_cycles": ("fidelity", "transient_cycles"),
-    "measured_cycles": ("fidelity", "measured_cycles"),
-    "sem_block_cycles": ("fidelity", "sem_block_cycles"),
-    "rotation": ("fidelity", "rotation"),
-    "friction": ("fidelity", "friction"),
-    "seed": ("fidelity", "seed"),
-    "pour_engine": ("fidelity", "pour_engine"),
-    "cells_per_run": ("fidelity", "cells_per_run"),
-    "solver": ("solver",),
-    "solver_version": ("engine", "version"),
-    "liggghts_version": ("engine", "liggghts_version"),
+#: table column -> key of the record's ``fidelity``, for settings the same for every replicate.
+_FIDELITY_COLUMNS = {
+    "dt_s": "timestep_s",
+    "dt_rayleigh_fraction": "rayleigh_fraction",
+    "steps_per_cycle": "steps_per_cycle",
+    "youngs_modulus_scale": "youngs_modulus_scale",
+    "transient_cycles": "transient_cycles",
+    "measured_cycles": "measured_cycles",
+    "sem_block_cycles": "sem_block_cycles",
+    "rotation": "rotation",
+    "friction": "friction",
+    "seed": "seed",
+    "pour_engine": "pour_engine",
+    "cells_per_run": "cells_per_run",
 }
 
 #: Columns of the campaign's C_eq table, in order (see :mod:`pidpipe.design.ceq_table`).
@@ -57,15 +51,6 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "pour_engine", "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
     "solver_wall_time_s", "liggghts_wall_time_s", "message",
 )
-
-
-def _get(record: dict, keys: tuple[str, ...], default=None):
-    value = record
-    for key in keys:
-        if not isinstance(value, dict) or key not in value:
-            return default
-        value = value[key]
-    return value
 
 
 def combine_replicates(values, sems) -> tuple[float, float]:
@@ -97,20 +82,22 @@ def combine_replicates(values, sems) -> tuple[float, float]:
     return mean, max(propagated, between)
 
 
-def missing_record(case: CaseSpec) -> dict:
-    """Stand-in for a case that has no record."""
-    return {"case_id": case.case_id, "freq_hz": case.freq_hz, "accel_g": case.accel_g,
-            "fill_pct": case.fill_pct, "replicate": case.replicate, "status": "missing",
-            "flags": [], "message": "no record"}
+def missing_record(case: CaseSpec) -> CaseRecord:
+    """Stand-in for a case that has no record (status ``missing``, never written)."""
+    return CaseRecord(solver="", case_id=case.case_id, freq_hz=case.freq_hz, accel_g=case.accel_g,
+                      fill_pct=case.fill_pct, replicate=case.replicate, status="missing",
+                      message="no record")
 
 
-def records_to_table(records: Iterable[dict], expected: Iterable[CaseSpec] | None = None) -> pd.DataFrame:
+def records_to_table(records: Iterable[CaseRecord],
+                     expected: Iterable[CaseSpec] | None = None) -> pd.DataFrame:
     """The C_eq table: one row per grid point (f, G, r), replicates averaged.
 
     Parameters
     ----------
-    records : iterable of dict
-        Case records (:func:`pidpipe.liggghts.shake.run_case`, :func:`failed_record`).
+    records : iterable of CaseRecord
+        Case records (:func:`pidpipe.liggghts.shake.run_case`, :func:`pidpipe.dem.case.run_dem_case`,
+        :func:`pidpipe.steps.cases.failed_record`).
     expected : iterable of CaseSpec, optional
         The campaign's cases; one without a record gives a ``missing`` replicate.
 
@@ -125,57 +112,61 @@ def records_to_table(records: Iterable[dict], expected: Iterable[CaseSpec] | Non
         ``failed``, else ``missing`` (values NaN). ``case_id`` joins the replicates' ids
         with ``;`` (just the one id without replicates); ``n_replicates`` counts those averaged.
     """
-    by_id: dict[str, dict] = {}
+    by_id: dict[str, CaseRecord] = {}
     for record in records:
-        by_id[record["case_id"]] = record
+        by_id[record.case_id] = record
     for case in expected or ():
         by_id.setdefault(case.case_id, missing_record(case))
-    groups: dict[tuple[float, float, float], list[dict]] = {}
+    groups: dict[tuple[float, float, float], list[CaseRecord]] = {}
     for record in by_id.values():
-        key = tuple(float(record[c]) for c in COORDINATE_COLUMNS)
+        key = (float(record.freq_hz), float(record.accel_g), float(record.fill_pct))
         groups.setdefault(key, []).append(record)
-    rows = [_table_row(point, sorted(group, key=lambda r: int(r.get("replicate", 0))))
+    rows = [_table_row(point, sorted(group, key=lambda r: int(r.replicate)))
             for point, group in sorted(groups.items())]
     table = pd.DataFrame(rows, columns=list(TABLE_COLUMNS))
     return table
 
 
-def _table_row(point: tuple[float, float, float], replicates: list[dict]) -> dict:
+def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) -> dict:
     """One grid point's row from its replicates' records."""
-    status_of = [r.get("status", "missing") for r in replicates]
+    status_of = [r.status for r in replicates]
     best = min(status_of, key=_STATUS_ORDER.index)
     used = [r for r, s in zip(replicates, status_of) if s == best and best in ("ok", "flagged")]
     flags: list[str] = []
     for record, status in zip(replicates, status_of):
-        rep = f"rep{record.get('replicate', 0)}"
+        rep = f"rep{record.replicate}"
         prefix = f"{rep}:" if len(replicates) > 1 else ""
-        flags.extend(f"{prefix}{flag}" for flag in record.get("flags", []))
+        flags.extend(f"{prefix}{flag}" for flag in record.flags)
         if status != best:
             flags.append(f"{rep}:{status}")
     row = dict(zip(COORDINATE_COLUMNS, point))
-    row.update(case_id=";".join(r["case_id"] for r in replicates), status=best,
+    row.update(case_id=";".join(r.case_id for r in replicates), status=best,
                flags=";".join(flags), n_replicates=len(used),
-               message=" | ".join(r["message"] for r in replicates if r.get("message")))
+               message=" | ".join(r.message for r in replicates if r.message))
     for value_key, sem_key in _MEAN_WITH_SEM:
         row[value_key], row[sem_key] = combine_replicates(
-            [_number(r.get(value_key)) for r in used], [_number(r.get(sem_key)) for r in used])
-    row["n_cycles"] = int(sum(int(r.get("n_cycles") or 0) for r in used))
+            [_number(getattr(r, value_key)) for r in used], [_number(getattr(r, sem_key)) for r in used])
+    row["n_cycles"] = int(sum(int(r.n_cycles or 0) for r in used))
     row["regime"], row["regime_cells"] = table_regime(point[1], used)
     row["ceq_relative_sem"], row["signal"] = signal_quality(row["ceq_coupon_ns_m"],
                                                             row["ceq_coupon_sem_ns_m"])
-    timed = [r for r in replicates if r.get("status") in ("ok", "flagged")]
-    row["wall_time_s"] = float(sum(_number(r.get("wall_time_s")) for r in timed)) if timed else math.nan
-    row["liggghts_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "liggghts_wall_time_s")))
+    timed = [r for r in replicates if r.measured]
+    row["wall_time_s"] = float(sum(_number(r.wall_time_s) for r in timed)) if timed else math.nan
+    row["liggghts_wall_time_s"] = (float(sum(_number(r.engine.get("liggghts_wall_time_s"))
                                              for r in timed)) if timed else math.nan)
-    row["solver_wall_time_s"] = (float(sum(_number(_get(r, ("engine", "wall_time_s")))
+    row["solver_wall_time_s"] = (float(sum(_number(r.engine.get("wall_time_s"))
                                            for r in timed)) if timed else math.nan)
     reference = (used or replicates)[0]
-    for column, keys in _SETTING_COLUMNS.items():
-        row[column] = _get(reference, keys)
+    row["n_spheres"] = reference.n_spheres
+    for column, key in _FIDELITY_COLUMNS.items():
+        row[column] = reference.fidelity.get(key)
+    row["solver"] = reference.solver if reference.status != "missing" else None
+    row["solver_version"] = reference.engine.version
+    row["liggghts_version"] = reference.engine.get("liggghts_version")
     return row
 
 
-def table_regime(accel_g: float, used: list[dict]) -> tuple[str, str]:
+def table_regime(accel_g: float, used: list[CaseRecord]) -> tuple[str, str]:
     """A grid point's regime and how its cells split, from its replicates' motion.
 
     With the motion sampled (records with ``motion``), the regime is the one most cells of the
@@ -185,7 +176,7 @@ def table_regime(accel_g: float, used: list[dict]) -> tuple[str, str]:
     """
     from pidpipe.measurement.regime import REGIMES, case_regime
 
-    cells = [name for r in used for name in (r.get("motion") or {}).get("cell_regimes", [])]
+    cells = [name for r in used for name in (r.motion or {}).get("cell_regimes", [])]
     if not cells:
         return regime(accel_g), ""
     counts = {name: cells.count(name) for name in REGIMES if name in cells}
@@ -196,28 +187,14 @@ def _number(value) -> float:
     return math.nan if value is None else float(value)
 
 
-def read_record(path: str | os.PathLike) -> dict:
-    """Read a case record (JSON).
+def read_record(path: str | os.PathLike) -> CaseRecord:
+    """Read a case record (JSON): :meth:`CaseRecord.read`.
 
     Raises
     ------
     ParseError
         The file cannot be read or is not a case record.
+    RecordVersionError
+        The record is of another record version (the message says to delete it and rerun).
     """
-    try:
-        record = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise ParseError(f"case record {path} cannot be read: {exc}") from None
-    if not isinstance(record, dict) or "case_id" not in record or "status" not in record:
-        raise ParseError(f"case record {path} is not a case record (no case_id or status)")
-    return record
-
-
-def record_cpu_time_s(record: dict) -> float:
-    """A record's CPU seconds: all stages of an adaptive run (``target``), else its one run."""
-    from pidpipe.measurement.adaptive import run_cpu_time_s
-
-    target = record.get("target") or {}
-    if "cpu_time_s" in target:
-        return float(target["cpu_time_s"])
-    return run_cpu_time_s(record)
+    return CaseRecord.read(path)

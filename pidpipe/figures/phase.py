@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from pidpipe.figures.common import RC_PARAMS, save_figure
+from pidpipe.measurement.case_record import CaseRecord
 
 
 def _band(ax, phase, quantity: dict, scale: float, label: str, colour: str) -> None:
@@ -25,12 +26,12 @@ def _band(ax, phase, quantity: dict, scale: float, label: str, colour: str) -> N
     ax.fill_between(phase, mean - std, mean + std, color=colour, alpha=0.25, linewidth=0)
 
 
-def plot_phase_profile(record: dict, stem: str | Path | None = None) -> Figure:
+def plot_phase_profile(record: CaseRecord, stem: str | Path | None = None) -> Figure:
     """The phase-resolved figure of one case record that sampled its motion.
 
     Parameters
     ----------
-    record : dict
+    record : CaseRecord
         A case record with ``motion`` (:func:`pidpipe.liggghts.shake.run_case`).
     stem : str or Path, optional
         If given, save as ``<stem>.png`` and ``<stem>.pdf``.
@@ -44,21 +45,21 @@ def plot_phase_profile(record: dict, stem: str | Path | None = None) -> Figure:
     """
     import matplotlib as mpl
 
-    motion = record.get("motion")
+    motion = record.motion
     if not motion:
         with mpl.rc_context(RC_PARAMS):
             fig = Figure(figsize=(6.4, 2.0), layout="constrained")
             ax = fig.subplots()
             ax.set_axis_off()
-            ax.text(0.5, 0.5, f"{record.get('case_id')}: no phase profile\n(status "
-                    f"{record.get('status')}; the bed's motion was not sampled)",
+            ax.text(0.5, 0.5, f"{record.case_id}: no phase profile\n(status "
+                    f"{record.status}; the bed's motion was not sampled)",
                     ha="center", va="center", transform=ax.transAxes)
             if stem is not None:
                 save_figure(fig, stem)
         return fig
     profile = motion["profile"]
     phase = np.asarray(profile["phase"], dtype=float)
-    fid = record["fidelity"]
+    fid = record.fidelity
     with mpl.rc_context(RC_PARAMS):
         fig = Figure(figsize=(6.4, 7.2), layout="constrained")
         top, middle, bottom = fig.subplots(3, 1, sharex=True)
@@ -83,10 +84,10 @@ def plot_phase_profile(record: dict, stem: str | Path | None = None) -> Figure:
         bottom.legend(loc="upper right", fontsize=8)
         cells = motion.get("cell_regimes", [])
         split = ", ".join(f"{cells.count(n)} {n.replace('_', ' ')}" for n in dict.fromkeys(cells))
-        fig.suptitle(f"{record['case_id']}: regime {record['regime'].replace('_', ' ')} "
+        fig.suptitle(f"{record.case_id}: regime {record.regime.replace('_', ' ')} "
                      f"(cells: {split})\nmean ± std over {profile['n_cycles']} measured cycles, "
-                     f"{len(cells)} cell(s); dt = {fid['timestep_s']:.3g} s, "
-                     f"{record.get('solver', 'liggghts')}", fontsize=10)
+                     f"{len(cells)} cell(s); dt = {fid.timestep_s:.3g} s, "
+                     f"{record.solver}", fontsize=10)
         if stem is not None:
             save_figure(fig, stem)
     return fig

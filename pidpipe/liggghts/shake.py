@@ -1,14 +1,13 @@
 """One case end to end: shake a settled packing in LIGGGHTS, close the energy balance, report C_eq.
 
-The record a case writes (JSON, atomically) holds the result with its uncertainty, the whole
-per-cycle series, the checks that were made, and every fidelity setting that produced it.
+The case's record (:class:`pidpipe.measurement.case_record.CaseRecord`, written as JSON
+atomically) holds the result with its uncertainty, the whole per-cycle series, the checks that
+were made, and every fidelity setting that produced it.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import platform
 import time
 from pathlib import Path
@@ -33,6 +32,7 @@ from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
 from pidpipe.liggghts.movie import movie_deck_values
 from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
@@ -49,16 +49,6 @@ MESH_FILE = "cell.stl"
 LEDGER_TOLERANCE = 1e-4
 """Largest mismatch, per cycle, between the mesh's wall work and the sum of the cells', as a
 fraction of the gross work exchanged (both are written with 6 digits)."""
-RECORD_VERSION = 4
-"""3: energy_j includes the elastic energy held in the contacts (mechanical_j and elastic_j
-keep the parts), and the potential energy is measured from the packing's starting centre of mass.
-4: a case may shake k cells in one run (fidelity.cells_per_run): the values are the mean cell's,
-``cells`` holds each cell's own, ``cycles`` the k cells' series summed, and the standard error
-includes the scatter between the cells' packings (:func:`pidpipe.measurement.cells.summarise_cells`).
-Each cell's wall work is from the force on its spheres (their total force plus their weight);
-the mesh's total checks the cells' sum (``ledger_mismatch_of_gross_work``)."""
-
-
 def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
                       packings: Packing | Sequence[Packing], workdir: Path,
                       movie: MovieSettings | None = None, mesh_subdivisions: int = 1) -> dict:
@@ -174,7 +164,7 @@ def timestep_flags(warnings: tuple[str, ...]) -> list[str]:
 
 def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequence[Packing],
              workdir: str | Path, movie: MovieSettings | None = None,
-             movie_dir: str | Path | None = None, mesh_subdivisions: int = 1) -> dict:
+             movie_dir: str | Path | None = None, mesh_subdivisions: int = 1) -> CaseRecord:
     """Shake one case in LIGGGHTS and return its record.
 
     Parameters
@@ -196,8 +186,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
 
     Returns
     -------
-    dict
-        The case record (see :func:`write_record`).
+    CaseRecord
+        The case record (write it with :meth:`CaseRecord.write`).
     """
     started = time.perf_counter()
     workdir = Path(workdir)
@@ -226,28 +216,27 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     flags = (containment_flags(plan["scene"], series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))
-    return {
-        "record_version": RECORD_VERSION,
-        "solver": "liggghts",
-        "case_id": case.case_id,
-        "freq_hz": case.freq_hz,
-        "accel_g": case.accel_g,
-        "fill_pct": case.fill_pct,
-        "replicate": case.replicate,
-        "n_spheres": packings[0].n_spheres,
-        "status": "flagged" if flags else "ok",
-        "flags": flags,
+    return CaseRecord(
+        solver="liggghts",
+        case_id=case.case_id,
+        freq_hz=case.freq_hz,
+        accel_g=case.accel_g,
+        fill_pct=case.fill_pct,
+        replicate=case.replicate,
+        n_spheres=packings[0].n_spheres,
+        status="flagged" if flags else "ok",
+        flags=flags,
         **summary,
         **steady.as_record(),
         **inspection,
-        "wall_work_cycle_mean_j": float(series.wall_work_j[transient:].mean()) / len(cells),
-        "ledger_mismatch_of_gross_work": ledger_mismatch,
-        "cycles": series.as_record(),
-        "fidelity": fidelity_record(settings, plan["timestep"], transient,
-                                    [packing.seed for packing in packings], "liggghts",
-                                    configured_transient, packings[0].pile_height_m,
-                                    pour_engines(packings)),
-        "engine": {
+        wall_work_cycle_mean_j=float(series.wall_work_j[transient:].mean()) / len(cells),
+        ledger_mismatch_of_gross_work=ledger_mismatch,
+        cycles=series.as_record(),
+        fidelity=fidelity_record(settings, plan["timestep"], transient,
+                                 [packing.seed for packing in packings], "liggghts",
+                                 configured_transient, packings[0].pile_height_m,
+                                 pour_engines(packings)),
+        engine={
             "name": "liggghts",
             "solver": "liggghts",
             "version": engine.version,
@@ -260,8 +249,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
             "steps": engine.steps,
             "host": platform.node(),
         },
-        "wall_time_s": time.perf_counter() - started,
-    }
+        wall_time_s=time.perf_counter() - started,
+    )
 
 
 def read_cell_series(scene: CellScene, plan: dict,
@@ -290,20 +279,3 @@ def read_cell_series(scene: CellScene, plan: dict,
     cells_work = np.sum([cell.wall_work_j for cell in cells], axis=0)
     gross = mesh.gross_work_j.mean()
     return cells, mesh, float(np.max(np.abs(cells_work - mesh.wall_work_j)) / gross) if gross > 0 else 0.0
-
-
-def write_record(record: dict, path: str | Path) -> Path:
-    """Write a case record as JSON, atomically and flushed to disk: a reader never sees half a
-    file, and an interrupted write leaves no temporary file behind."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    try:
-        with open(tmp, "w", encoding="utf-8") as handle:
-            handle.write(json.dumps(record, indent=1, allow_nan=True))
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path

@@ -56,6 +56,7 @@ import pandas as pd
 from pidpipe.cases import CaseSpec
 from pidpipe.config.derived import spheres_at_fill
 from pidpipe.errors import PidpipeError
+from pidpipe.measurement.case_record import CaseRecord
 
 #: The designs checked, in the table's order.
 VERIFIED_KINDS: tuple[str, ...] = ("band_mean", "peak")
@@ -247,26 +248,24 @@ def is_off(z: np.ndarray, flag_z: float) -> np.ndarray:
     return np.isfinite(z) & (np.abs(z) > float(flag_z))
 
 
-def record_columns(record: dict) -> dict:
+def record_columns(record: CaseRecord) -> dict:
     """The DEM columns of a verifying case's record (failed: NaN values)."""
-    from pidpipe.design.records import record_cpu_time_s
-
     nan = math.nan
-    target = record.get("target") or {}
-    fidelity = record.get("fidelity") or {}
+    target = record.target or {}
+    fidelity = record.fidelity
     return {
-        "engine": (record.get("engine") or {}).get("name", fidelity.get("engine", "")),
-        "solver": record.get("solver", ""), "dem_status": record.get("status", "missing"),
-        "dem_flags": ";".join(record.get("flags", [])),
-        "n_cycles": int(record.get("n_cycles", 0)),
+        "engine": record.engine_name if record.engine_name is not None else (fidelity.engine or ""),
+        "solver": record.solver, "dem_status": record.status,
+        "dem_flags": ";".join(record.flags),
+        "n_cycles": int(record.n_cycles),
         "n_cells_measured": int(target.get("cells", fidelity.get("cells_per_run", 0))),
         "transient_cycles": fidelity.get("transient_cycles", nan),
         "steps_per_cycle": fidelity.get("steps_per_cycle", nan),
         "target_relative_sem": target.get("relative_sem", nan),
         "target_reached": target.get("reached", ""),
-        "dem_cpu_time_s": record_cpu_time_s(record),
-        "ceq_coupon_dem_ns_m": float(record.get("ceq_coupon_ns_m", nan)),
-        "ceq_coupon_dem_sem_ns_m": float(record.get("ceq_coupon_sem_ns_m", nan)),
+        "dem_cpu_time_s": record.cpu_time_s,
+        "ceq_coupon_dem_ns_m": float(record.ceq_coupon_ns_m),
+        "ceq_coupon_dem_sem_ns_m": float(record.ceq_coupon_sem_ns_m),
     }
 
 
@@ -276,7 +275,7 @@ FIDELITY_KEYS: tuple[str, ...] = ("engine", "timestep_rayleigh_fraction_config",
                                   "cells_per_run")
 
 
-def stale_records(records: dict[str, dict], fidelity: dict,
+def stale_records(records: dict[str, CaseRecord], fidelity: dict,
                   target_relative_sem: float | None) -> list[str]:
     """The cases whose record was not made with the configured settings, each with the reason.
 
@@ -286,7 +285,7 @@ def stale_records(records: dict[str, dict], fidelity: dict,
 
     Parameters
     ----------
-    records : dict of str -> dict
+    records : dict of str -> CaseRecord
         Case id -> record.
     fidelity : dict
         The expected values of :data:`FIDELITY_KEYS` (a record's ``fidelity`` block).
@@ -304,14 +303,14 @@ def stale_records(records: dict[str, dict], fidelity: dict,
         for key in FIDELITY_KEYS:
             if made.get(key) != fidelity[key]:
                 stale.append(f"{case_id}: {key} {made.get(key)!r} (configured {fidelity[key]!r})")
-        target = (record.get("target") or {}).get("relative_sem")
-        if record.get("status") != "failed" and target != target_relative_sem:
+        target = (record.target or {}).get("relative_sem")
+        if record.status != "failed" and target != target_relative_sem:
             stale.append(f"{case_id}: target_relative_sem {target!r} (configured "
                          f"{target_relative_sem!r})")
     return stale
 
 
-def pilot_fidelity(record: dict) -> dict:
+def pilot_fidelity(record: CaseRecord) -> dict:
     """A record's ``fidelity`` block with the cells and measured cycles of its pilot run.
 
     A case run to a target keeps its pilot's settings in ``target.runs[0]``; the allocation
@@ -322,8 +321,7 @@ def pilot_fidelity(record: dict) -> dict:
 
     Parameters
     ----------
-    record : dict
-        A case record.
+    record : CaseRecord
 
     Returns
     -------
@@ -331,14 +329,14 @@ def pilot_fidelity(record: dict) -> dict:
         ``fidelity`` as the pilot was configured: ``measured_cycles`` and ``cells_per_run``
         from ``target.runs[0]`` when the record has one, else the record's own.
     """
-    made = dict(record.get("fidelity") or {})
-    runs = (record.get("target") or {}).get("runs") or []
+    made = dict(record.fidelity or {})
+    runs = (record.target or {}).get("runs") or []
     if runs:
         made.update(measured_cycles=runs[0]["measured_cycles"], cells_per_run=runs[0]["cells"])
     return made
 
 
-def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.DataFrame,
+def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: pd.DataFrame,
             flag_z: float) -> pd.DataFrame:
     """The verification table: each design point's DEM case against the surrogate.
 
@@ -346,7 +344,7 @@ def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.Data
     ----------
     points : pandas.DataFrame
         :func:`plan_points`, m rows.
-    records : dict of str -> dict
+    records : dict of str -> CaseRecord
         The record of every case id of ``points``.
     predictions : pandas.DataFrame
         :func:`surrogate_uncertainty` at ``points``, m rows in the same order.
@@ -370,8 +368,8 @@ def compare(points: pd.DataFrame, records: dict[str, dict], predictions: pd.Data
     rows = []
     for case_id in points["case_id"]:
         record = records[case_id]
-        if record.get("case_id") != case_id:
-            raise PidpipeError(f"the record given for {case_id} is of case {record.get('case_id')!r}")
+        if record.case_id != case_id:
+            raise PidpipeError(f"the record given for {case_id} is of case {record.case_id!r}")
         rows.append(record_columns(record))
     dem = pd.DataFrame(rows, index=points.index)
     table = pd.concat([points, dem, predictions.set_index(points.index)], axis=1)

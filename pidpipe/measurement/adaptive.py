@@ -29,7 +29,6 @@ CPU and wall time of each, and the sums.
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import functools
 import math
@@ -41,6 +40,7 @@ import numpy as np
 
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.measurement.allocation import Components, Limits, Step, plan_next_step
+from pidpipe.measurement.case_record import CaseRecord, Fidelity
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.steady_state import NOT_RESOLVED_SEMS, SIGN_FLAGS, sign_flags
 
@@ -67,18 +67,12 @@ TARGET_NOT_REACHED = "target_not_reached"
 check: the case keeps its status and is fitted with the SEM it reports."""
 
 
-def run_cpu_time_s(record: dict) -> float:
-    """The engine's CPU time of one run record, s (LIGGGHTS' or another engine's ``cpu_time_s``)."""
-    engine = record.get("engine", {})
-    return float(engine.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))))
-
-
-def components_of(record: dict, measured_cycles: int | None = None) -> Components:
+def components_of(record: CaseRecord, measured_cycles: int | None = None) -> Components:
     """The variance components of a (combined) case record (:func:`combine_runs`).
 
     Parameters
     ----------
-    record : dict
+    record : CaseRecord
     measured_cycles : int, optional
         The measured cycles its runs were made with (as configured). The cells keep fewer when
         the steady-state test found a longer transient than the configured one; the difference
@@ -87,31 +81,36 @@ def components_of(record: dict, measured_cycles: int | None = None) -> Component
         with the configured cycles would see a SEM below the reported one, and could stop a
         case short of its target). None: none lost.
     """
-    value = record["ceq_cell_ns_m"]
-    packing_std = record.get("ceq_cell_packing_std_ns_m", float("nan"))
+    value = record.ceq_cell_ns_m
+    packing_std = _number(record.ceq_cell_packing_std_ns_m)
     if not math.isfinite(packing_std):
         packing_std = PRIOR_PACKING_RELATIVE_STD * abs(value)
-    noise_var = record["cycle_noise_ns_m_sqrt_cycle"] ** 2
+    noise_var = record.cycle_noise_ns_m_sqrt_cycle ** 2
     return Components(value, packing_std ** 2, noise_var,
                       _lost_cycles(record, noise_var, measured_cycles))
 
 
-def _lost_cycles(record: dict, noise_var: float, measured_cycles: int | None) -> float:
+def _number(value: float | None) -> float:
+    """A record's optional value, NaN when the record has none."""
+    return float("nan") if value is None else float(value)
+
+
+def _lost_cycles(record: CaseRecord, noise_var: float, measured_cycles: int | None) -> float:
     """Configured measured cycles minus the cycles the record's cells kept in effect: tau^2 over
     the mean of the cells' squared cycle SEMs (the cells' own count when they agree), >= 0."""
-    cells = max(len(record.get("cells") or []), 1)
-    cycle_var = cells * record.get("ceq_cell_cycle_sem_ns_m", float("nan")) ** 2
+    cells = max(len(record.cells or ()), 1)
+    cycle_var = cells * _number(record.ceq_cell_cycle_sem_ns_m) ** 2
     if measured_cycles is None or not (math.isfinite(cycle_var) and cycle_var > 0.0):
         return 0.0
     return max(0.0, float(measured_cycles) - noise_var / cycle_var)
 
 
 def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | None,
-                      limits: Limits, shake: Callable[[list, int, int], dict],
+                      limits: Limits, shake: Callable[[list, int, int], CaseRecord],
                       new_packings: Callable[[int, int], list],
-                      costs: Callable[[dict], tuple],
-                      combine: Callable[[list[dict]], dict],
-                      extend: Callable[[int, int], dict] | None = None) -> dict:
+                      costs: Callable[[CaseRecord], tuple],
+                      combine: Callable[[list[CaseRecord]], CaseRecord],
+                      extend: Callable[[int, int], CaseRecord] | None = None) -> CaseRecord:
     """Run the pilot, then the planned steps, and return the case's combined record.
 
     Parameters
@@ -144,7 +143,7 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
 
     Returns
     -------
-    dict
+    CaseRecord
         The combined record; with a target, ``target`` = {relative_sem, reached, cells,
         measured_cycles, not_chased (why the case was not chased, or not further; None when
         it ran to the target or a cap), runs (every
@@ -168,7 +167,7 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
     unsteady_pilot = _unsteady_flags(records[0])
     not_chased = f"the pilot is flagged {', '.join(unsteady_pilot)}" if unsteady_pilot else None
     for _ in range(0 if unsteady_pilot else MAX_STEPS):
-        value, sem = case["ceq_cell_ns_m"], case["ceq_cell_sem_ns_m"]
+        value, sem = case.ceq_cell_ns_m, case.ceq_cell_sem_ns_m
         if not (math.isfinite(sem) and value > NOT_RESOLVED_SEMS * sem):
             not_chased = "C_eq is not resolved from zero"
             break
@@ -195,7 +194,7 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
             break
     reached = _at_target(case, relative_sem)
     _mark_used(history, current)
-    case["target"] = {
+    target = {
         "relative_sem": relative_sem, "reached": reached,
         "cells": _cells(groups, current), "measured_cycles": cycles,
         "limits": {"max_cells": limits.max_cells, "max_measured_cycles": limits.max_cycles,
@@ -205,20 +204,19 @@ def measure_to_target(pilot: Sequence, pilot_cycles: int, relative_sem: float | 
         "planned_cpu_s": float(sum(entry["planned_cpu_s"] for entry in history)),
         "wall_time_s": float(sum(entry["wall_time_s"] for entry in history)),
     }
-    if not reached:
-        case["flags"] = case["flags"] + [TARGET_NOT_REACHED]
-    return case
+    flags = case.flags if reached else case.flags + (TARGET_NOT_REACHED,)
+    return case.with_(target=target, flags=flags)
 
 
-def _at_target(case: dict, relative_sem: float) -> bool:
+def _at_target(case: CaseRecord, relative_sem: float) -> bool:
     """Whether the case's C_eq is positive and its SEM at most ``relative_sem`` of it."""
-    value, sem = case["ceq_cell_ns_m"], case["ceq_cell_sem_ns_m"]
+    value, sem = case.ceq_cell_ns_m, case.ceq_cell_sem_ns_m
     return bool(sem <= relative_sem * value and value > 0.0)
 
 
-def _unsteady_flags(record: dict) -> list[str]:
+def _unsteady_flags(record: CaseRecord) -> list[str]:
     """The record's flags among :data:`UNSTEADY_FLAGS`."""
-    return [flag for flag in record.get("flags", []) if flag in UNSTEADY_FLAGS]
+    return [flag for flag in record.flags if flag in UNSTEADY_FLAGS]
 
 
 def _cells(groups: list[list], current: dict) -> int:
@@ -245,8 +243,9 @@ def _continue_cpu_s(run_cells: list[int], cycles: int, extend_cpu_s: Callable,
     return float(sum(extend_cpu_s(k, cycles, new_cycles) for k in run_cells))
 
 
-def _take_step(step: Step, cycles: int, groups: list[list], current: dict[int, dict], runs: Runs,
-               new_packings: Callable, cells_per_run: int, history: list[dict]) -> dict[int, dict]:
+def _take_step(step: Step, cycles: int, groups: list[list], current: dict[int, CaseRecord],
+               runs: Runs, new_packings: Callable, cells_per_run: int,
+               history: list[dict]) -> dict[int, CaseRecord]:
     """Make the runs of ``step`` (from ``cycles`` measured cycles); return the records now
     current, by run index. Each new run's ``planned_cpu_s`` includes the pours charged for the
     new packings it shakes; a continued run's is that of the cycles added."""
@@ -280,7 +279,7 @@ def _take_step(step: Step, cycles: int, groups: list[list], current: dict[int, d
     return current
 
 
-def _mark_used(history: list[dict], current: dict[int, dict]) -> None:
+def _mark_used(history: list[dict], current: dict[int, CaseRecord]) -> None:
     """Set each entry's ``used``: its cells' cycles are in the case record (its run is current
     and it is the run's last entry, or one that the later, continued, entries took on)."""
     for entry in history:
@@ -299,22 +298,22 @@ def _chunks(items: list, size: int) -> list[list]:
     return [items[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _run_entry(record: dict, index: int, kind: str, packings: list, planned_cpu_s: float,
+def _run_entry(record: CaseRecord, index: int, kind: str, packings: list, planned_cpu_s: float,
                continued_from: int | None = None) -> dict:
     """One entry of ``target.runs``: a run, or the part of it that a continuation added (its
     ``continued`` true, ``from_measured_cycles`` the measured cycles it went on from, 0 for a
     run from the pour; its CPU that of the continuation alone)."""
     return {"run": index, "kind": kind, "continued": continued_from is not None,
             "from_measured_cycles": int(continued_from or 0), "seeds": [int(p.seed) for p in packings],
-            "cells": len(packings), "measured_cycles": int(record["fidelity"]["measured_cycles"]),
-            "transient_cycles": int(record["fidelity"]["transient_cycles"]),
-            "status": record["status"], "flags": list(record["flags"]),
-            "ceq_cell_ns_m": record["ceq_cell_ns_m"], "ceq_cell_sem_ns_m": record["ceq_cell_sem_ns_m"],
-            "cpu_time_s": run_cpu_time_s(record), "planned_cpu_s": float(planned_cpu_s),
-            "wall_time_s": float(record.get("wall_time_s", float("nan")))}
+            "cells": len(packings), "measured_cycles": record.fidelity.measured_cycles,
+            "transient_cycles": record.fidelity.transient_cycles,
+            "status": record.status, "flags": list(record.flags),
+            "ceq_cell_ns_m": record.ceq_cell_ns_m, "ceq_cell_sem_ns_m": record.ceq_cell_sem_ns_m,
+            "cpu_time_s": record.engine_cpu_s, "planned_cpu_s": float(planned_cpu_s),
+            "wall_time_s": float(record.wall_time_s)}
 
 
-def cell_series(record: dict) -> list[dict]:
+def cell_series(record: CaseRecord) -> list[dict]:
     """Each cell of one run record: its measured E_d series (after the run's transient) and packing.
 
     Returns
@@ -323,32 +322,33 @@ def cell_series(record: dict) -> list[dict]:
         ``dissipated_j`` (ndarray, shape (n_measured,), J), ``seed``, ``n_spheres``,
         ``pile_height_m``, ``dissipated_all_j`` (the whole series, transient included).
     """
-    transient = int(record["fidelity"]["transient_cycles"])
-    if record.get("cells"):
+    transient = record.fidelity.transient_cycles
+    if record.cells:
         return [{"dissipated_j": np.asarray(cell["dissipated_j"][transient:], dtype=float),
                  "dissipated_all_j": cell["dissipated_j"], "seed": cell["seed"],
                  "n_spheres": cell["n_spheres"], "pile_height_m": cell["pile_height_m"]}
-                for cell in record["cells"]]
-    series = record["cycles"]["dissipated_j"]
+                for cell in record.cells]
+    series = record.cycles["dissipated_j"]
     return [{"dissipated_j": np.asarray(series[transient:], dtype=float), "dissipated_all_j": series,
-             "seed": record["fidelity"]["seed"], "n_spheres": record["n_spheres"],
-             "pile_height_m": record["fidelity"].get("pile_height_m")}]
+             "seed": record.fidelity.seed, "n_spheres": record.n_spheres,
+             "pile_height_m": record.fidelity.pile_height_m}]
 
 
-def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_coupon: int) -> dict:
+def combine_runs(records: list[CaseRecord], freq_hz: float, accel_g: float,
+                 n_cells_coupon: int) -> CaseRecord:
     """The case record of several runs' cells together: one estimate over all of them.
 
     Parameters
     ----------
-    records : list of dict
-        Run records (:func:`pidpipe.liggghts.shake.run_case`, or another engine's of the same
-        layout), each with its cells' series; the cells of all are distinct packings.
+    records : list of CaseRecord
+        Run records (:func:`pidpipe.liggghts.shake.run_case`, :func:`pidpipe.dem.case.run_dem_case`),
+        each with its cells' series; the cells of all are distinct packings.
     freq_hz, accel_g : float
     n_cells_coupon : int
 
     Returns
     -------
-    dict
+    CaseRecord
         The last record, with the mean cell, its standard errors and ``cells`` from
         :func:`pidpipe.measurement.cells.summarise_cells` over every run's cells (each cell
         also names its ``run``); ``flags`` the union of the runs' own, with the sign flags
@@ -356,9 +356,9 @@ def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_co
         SEM; ``status`` from them; ``fidelity.seeds`` every cell's seed and ``fidelity.cells``
         their number. ``cycles`` and the steady-state fields stay the last run's.
     """
-    case = copy.deepcopy(records[-1])
+    last = records[-1]
     cells = [(index, cell) for index, record in enumerate(records) for cell in cell_series(record)]
-    block = int(case["fidelity"]["sem_block_cycles"])
+    block = last.fidelity.sem_block_cycles
     summary = summarise_cells([cell["dissipated_j"] for _, cell in cells], freq_hz, accel_g,
                               n_cells_coupon, block)
     own = summary["cells"] or [{key: summary[key] for key in
@@ -368,23 +368,19 @@ def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_co
             entry.update(run=index, seed=cell["seed"], n_spheres=cell["n_spheres"],
                          pile_height_m=cell["pile_height_m"], dissipated_j=cell["dissipated_all_j"])
         summary["cells"] = own
-    case.update(summary)
-    flags = [flag for record in records for flag in record["flags"] if flag not in SIGN_FLAGS]
+    flags = [flag for record in records for flag in record.flags if flag not in SIGN_FLAGS]
     flags = list(dict.fromkeys(flags + sign_flags(summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])))
-    case["flags"] = flags
-    case["status"] = "flagged" if flags else "ok"
-    case["fidelity"]["seeds"] = [int(cell["seed"]) for _, cell in cells]
-    case["fidelity"]["cells"] = len(cells)
-    return case
+    fidelity = Fidelity(last.fidelity, seeds=[int(cell["seed"]) for _, cell in cells], cells=len(cells))
+    return last.with_(**summary, flags=flags, status="flagged" if flags else "ok", fidelity=fidelity)
 
 
 def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
-                  run: Callable[[ShakeSettings, object, list, Path], dict] | None = None,
+                  run: Callable[[ShakeSettings, object, list, Path], CaseRecord] | None = None,
                   new_packings: Callable[[int, int], list] | None = None,
                   cost_model=None, steps_per_cycle: int | None = None,
                   transient_cycles: int | None = None,
                   start: Callable[[ShakeSettings, object, list, Path], object] | None = None,
-                  pour_model=None) -> dict:
+                  pour_model=None) -> CaseRecord:
     """A case measured to ``sampling.target_relative_sem`` with ``run`` (:func:`measure_to_target`).
 
     Parameters
@@ -438,7 +434,7 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
         raise ValueError("run_to_target needs an engine's run or start")
     kept = {}
 
-    def shake(cells: list, cycles: int, index: int) -> dict:
+    def shake(cells: list, cycles: int, index: int) -> CaseRecord:
         staged = replace(settings, sampling=replace(sampling, measured_cycles=int(cycles)))
         folder = workdir if index == 0 else workdir / f"run{index}"
         if start is None:
@@ -446,13 +442,13 @@ def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,
         kept[index] = start(staged, case, cells, folder)
         return kept[index].record
 
-    def extend(index: int, cycles: int) -> dict:
+    def extend(index: int, cycles: int) -> CaseRecord:
         return kept[index].extend(int(cycles))
 
-    def costs(pilot_record: dict):
-        n_spheres = int(pilot_record["n_spheres"])
+    def costs(pilot_record: CaseRecord):
+        n_spheres = int(pilot_record.n_spheres)
         model = cost_model or scaled_from_pilot(
-            "pilot", run_cpu_time_s(pilot_record), len(pilot), n_spheres,
+            "pilot", pilot_record.engine_cpu_s, len(pilot), n_spheres,
             steps_per_cycle * (transient_cycles + sampling.measured_cycles))
         return ((lambda k, n: model.run_cpu_s(k, n_spheres, steps_per_cycle * (transient_cycles + n))),
                 (pour_model or model).pour_cpu_s(n_spheres),

@@ -19,6 +19,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.config.inspection import MovieSettings
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, ParseError, PidpipeError
+from pidpipe.measurement.case_record import CaseRecord
 
 logger = logging.getLogger("pidpipe.campaign")
 
@@ -50,7 +51,7 @@ def pool_packing_path(folder: str | Path, fill_pct: float, index: int) -> Path:
 
 
 def pool_packings(settings: PourSettings, fill_pct: float, indices: list[int],
-                  folder: str | Path) -> list:
+                  folder: str | Path) -> list[CaseRecord]:
     """The packings ``indices`` of a fill, poured on demand into ``folder`` and kept there.
 
     A packing already in ``folder`` with the settings' seed, sphere count and pour engine is
@@ -124,7 +125,7 @@ def _pool_pour(settings: PourSettings, fill_pct: float, indices: list[int], fold
 
 def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_path: str,
                   workdir: str, log_path: str, packing_pool: str | None = None,
-                  movie: dict | None = None) -> dict:
+                  movie: dict | None = None) -> CaseRecord:
     """Run one case and write its record; a LIGGGHTS failure gives a ``failed`` record.
 
     A run that fails is tried again once (:data:`ENGINE_ATTEMPTS`); when every attempt fails
@@ -153,7 +154,7 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
 
     Returns
     -------
-    dict
+    CaseRecord
         The record written.
 
     Raises
@@ -164,7 +165,6 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
         The packing does not fit or has not settled.
     """
     from pidpipe.cell.packing import load_packing
-    from pidpipe.liggghts.shake import write_record
 
     case = CaseSpec.from_id(case_id)
     settings = ShakeSettings.from_config(config)
@@ -187,13 +187,13 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
             failures.append(str(exc))
             logger.warning("case %s, attempt %d of %d: %s", case_id, attempt, ENGINE_ATTEMPTS, exc)
             continue
-        record["engine_attempts"] = attempt
+        record = record.with_(engine_attempts=attempt)
         logger.info("case %s (%s): status %s%s, C_eq(coupon) = %.6g +- %.2g N*s/m over %d "
                     "cycles, wall time %.1f s (attempt %d); files in %s", case_id,
-                    record["solver"], record["status"],
-                    f" ({', '.join(record['flags'])})" if record["flags"] else "",
-                    record["ceq_coupon_ns_m"], record["ceq_coupon_sem_ns_m"], record["n_cycles"],
-                    record["wall_time_s"], attempt, workdir)
+                    record.solver, record.status,
+                    f" ({', '.join(record.flags)})" if record.flags else "",
+                    record.ceq_coupon_ns_m, record.ceq_coupon_sem_ns_m, record.n_cycles,
+                    record.wall_time_s, attempt, workdir)
         break
     else:
         message = (f"case {case_id} failed after {ENGINE_ATTEMPTS} attempt(s): {failures[-1]}; "
@@ -203,14 +203,14 @@ def simulate_case(config: dict, case_id: str, packing_paths: list[str], record_p
                      "the C_eq table go on; delete it to run the case again", record_path)
         record = failed_record(settings, case, packings[0].n_spheres,
                                [packing.seed for packing in packings], message)
-        record["engine_attempts"] = ENGINE_ATTEMPTS
-    write_record(record, record_path)
+        record = record.with_(engine_attempts=ENGINE_ATTEMPTS)
+    record.write(record_path)
     return record
 
 
 def simulate_cases(config: dict, case_ids: list[str], packing_paths: list[list[str]],
                    record_paths: list[str], workdirs: list[str], log_paths: list[str],
-                   packing_pool: str | None = None, movies: list[dict] | None = None) -> list[dict]:
+                   packing_pool: str | None = None, movies: list[dict] | None = None) -> list[CaseRecord]:
     """Several cases one after another in this process, each exactly as :func:`simulate_case`.
 
     One process for several DEM cases pays the job's start-up once (Python, the imports, Numba
@@ -230,7 +230,7 @@ def simulate_cases(config: dict, case_ids: list[str], packing_paths: list[list[s
 
     Returns
     -------
-    list of dict
+    list of CaseRecord
         The records written, in order.
     """
     sizes = {len(case_ids), len(packing_paths), len(record_paths), len(workdirs), len(log_paths)}
@@ -258,7 +258,7 @@ def simulate_cases(config: dict, case_ids: list[str], packing_paths: list[list[s
 def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdir: str | Path,
                  pour_settings: PourSettings | None = None, packing_pool: str | Path | None = None,
                  movie: MovieSettings | None = None, movie_dir: str | Path | None = None,
-                 continue_runs: bool = True) -> dict:
+                 continue_runs: bool = True) -> CaseRecord:
     """One case measured to its target (:func:`pidpipe.measurement.adaptive.run_to_target`).
 
     Parameters
@@ -282,7 +282,7 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
 
     Returns
     -------
-    dict
+    CaseRecord
         The case's combined record (every run that made it in ``target.runs``).
     """
     from pidpipe.cell.scene import CellScene
@@ -295,7 +295,7 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
         shake = functools.partial(shake, movie=movie, movie_dir=movie_dir)
     new_packings = None
     if pour_settings is not None and packing_pool is not None:
-        def new_packings(first: int, count: int) -> list:
+        def new_packings(first: int, count: int) -> list[CaseRecord]:
             indices = [extra_packing_index(case.replicate, cell)
                        for cell in range(first, first + count)]
             return pool_packings(pour_settings, case.fill_pct, indices, packing_pool)
@@ -323,7 +323,8 @@ def case_runner(settings: ShakeSettings):
 
     ``liggghts``: :func:`pidpipe.liggghts.shake.run_case` (LIGGGHTS must be installed);
     ``dem``: :func:`pidpipe.dem.case.run_dem_case` (numba must be installed). Both take
-    ``(settings, case, packings, workdir)`` and return records with the same keys.
+    ``(settings, case, packings, workdir)`` and return a
+    :class:`~pidpipe.measurement.case_record.CaseRecord`.
 
     Raises
     ------
@@ -353,8 +354,9 @@ def solver_name(settings: ShakeSettings) -> str:
 
 
 def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds: list[int],
-                  message: str) -> dict:
-    """The record of a case whose run failed: its coordinates, the settings it ran with, no values.
+                  message: str) -> CaseRecord:
+    """The record of a case whose run failed: its coordinates, the settings it ran with, no values
+    (C_eq, E_d and the wall time NaN, no cycles).
 
     ``seeds`` are those of its packings, one per cell of the run.
     """
@@ -362,16 +364,11 @@ def failed_record(settings: ShakeSettings, case: CaseSpec, n_spheres: int, seeds
     from pidpipe.measurement.run_record import fidelity_record
 
     seeds = [int(seed) for seed in seeds]
-    nan = float("nan")
-    return {
-        "solver": solver_name(settings), "case_id": case.case_id, "freq_hz": case.freq_hz,
-        "accel_g": case.accel_g, "fill_pct": case.fill_pct, "replicate": case.replicate,
-        "n_spheres": n_spheres, "status": "failed", "flags": [], "message": message,
-        "ceq_coupon_ns_m": nan, "ceq_coupon_sem_ns_m": nan, "ceq_cell_ns_m": nan,
-        "ceq_cell_sem_ns_m": nan, "ed_cycle_mean_j": nan, "ed_cycle_sem_j": nan, "n_cycles": 0,
-        "fidelity": fidelity_record(settings, CellScene.of(settings).timestep(case.freq_hz),
-                                    settings.sampling.transient_cycles_at(case.freq_hz), seeds,
-                                    settings.engine),
-        "engine": {"name": settings.engine, "solver": solver_name(settings)},
-        "wall_time_s": nan,
-    }
+    return CaseRecord(
+        solver=solver_name(settings), case_id=case.case_id, freq_hz=case.freq_hz,
+        accel_g=case.accel_g, fill_pct=case.fill_pct, replicate=case.replicate,
+        n_spheres=n_spheres, status="failed", flags=(), message=message, n_cycles=0,
+        fidelity=fidelity_record(settings, CellScene.of(settings).timestep(case.freq_hz),
+                                 settings.sampling.transient_cycles_at(case.freq_hz), seeds,
+                                 settings.engine),
+        engine={"name": settings.engine, "solver": solver_name(settings)})

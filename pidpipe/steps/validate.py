@@ -13,6 +13,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import PidpipeError
 from pidpipe.files import write_atomic
+from pidpipe.measurement.case_record import CaseRecord
 
 logger = logging.getLogger("pidpipe.campaign")
 
@@ -49,7 +50,7 @@ def validate_against_dem(config: dict, cases: list[dict], packing_paths: list[st
 
 
 def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: list[str],
-                        record_path: str, packing_pool: str | None = None) -> dict:
+                        record_path: str, packing_pool: str | None = None) -> CaseRecord:
     """Shake a campaign case in the compiled DEM on the cells its LIGGGHTS record shook.
 
     A case measured to a target made several runs (``target.runs``): the DEM replays the runs
@@ -82,24 +83,23 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
     """
     from pidpipe.cell.packing import load_packing, pour_engines
     from pidpipe.design.records import read_record
-    from pidpipe.liggghts.shake import write_record
 
     liggghts = read_record(liggghts_record_path)
-    if liggghts.get("solver") != "liggghts":
-        raise PidpipeError(f"{liggghts_record_path} was made by {liggghts.get('solver')!r}, not "
+    if liggghts.solver != "liggghts":
+        raise PidpipeError(f"{liggghts_record_path} was made by {liggghts.solver!r}, not "
                            "LIGGGHTS: `snakemake validate` checks a LIGGGHTS campaign (engine: "
                            "liggghts) with the DEM")
     settings = ShakeSettings.from_config(config)
-    case = CaseSpec.from_id(liggghts["case_id"])
+    case = CaseSpec.from_id(liggghts.case_id)
     pilot = [load_packing(path) for path in packing_paths]
-    poured_by = liggghts.get("fidelity", {}).get("pour_engine")
+    poured_by = liggghts.fidelity.pour_engine
     if poured_by is not None and poured_by != pour_engines(pilot):
         raise PidpipeError(f"{liggghts_record_path} shook packings poured by {poured_by}, but "
                            f"{', '.join(str(p) for p in packing_paths)} were poured by "
                            f"{pour_engines(pilot)}: rerun the campaign first")
-    runs = [run for run in (liggghts.get("target") or {}).get("runs", []) if run.get("used")]
+    runs = [run for run in (liggghts.target.runs if liggghts.target else []) if run.get("used")]
     if not runs:
-        seeds = liggghts.get("fidelity", {}).get("seeds")
+        seeds = liggghts.fidelity.get("seeds")
         runs = [{"run": 0, "seeds": seeds if seeds is not None else [p.seed for p in pilot],
                  "measured_cycles": settings.sampling.measured_cycles}]
     by_seed = {packing.seed: packing for packing in pilot}
@@ -107,17 +107,17 @@ def check_case_with_dem(config: dict, liggghts_record_path: str, packing_paths: 
                                     liggghts_record_path) for seed in run["seeds"]])
             for run in runs]
     record = replay_runs(settings, case, plan, Path(record_path).parent)
-    write_record(record, record_path)
+    record.write(record_path)
     logger.info("case %s: C_eq(cell) DEM %.4g +- %.2g, LIGGGHTS %.4g +- %.2g N*s/m over the same "
-                "%d cells; DEM %s%s", case.case_id, record["ceq_cell_ns_m"],
-                record["ceq_cell_sem_ns_m"], liggghts.get("ceq_cell_ns_m", float("nan")),
-                liggghts.get("ceq_cell_sem_ns_m", float("nan")), len(record.get("cells") or [1]),
-                record["status"], f" ({', '.join(record['flags'])})" if record["flags"] else "")
+                "%d cells; DEM %s%s", case.case_id, record.ceq_cell_ns_m,
+                record.ceq_cell_sem_ns_m, liggghts.ceq_cell_ns_m,
+                liggghts.ceq_cell_sem_ns_m, len(record.cells or [1]),
+                record.status, f" ({', '.join(record.flags)})" if record.flags else "")
     return record
 
 
 def replay_runs(settings: ShakeSettings, case: CaseSpec, plan: list[tuple[dict, list]],
-                workdir: str | Path) -> dict:
+                workdir: str | Path) -> CaseRecord:
     """The DEM's record of a case made of the given runs, combined as the campaign combines them.
 
     Parameters
@@ -131,14 +131,14 @@ def replay_runs(settings: ShakeSettings, case: CaseSpec, plan: list[tuple[dict, 
 
     Returns
     -------
-    dict
+    CaseRecord
         The combined record; ``target`` = {``replay_of`` the runs replayed (run index, seeds,
         measured cycles, CPU s), ``cells``, ``measured_cycles``, ``cpu_time_s``}.
     """
     import time
 
     from pidpipe.dem.case import run_dem_case
-    from pidpipe.measurement.adaptive import combine_runs, run_cpu_time_s
+    from pidpipe.measurement.adaptive import combine_runs
 
     records, replayed = [], []
     started = time.perf_counter()
@@ -151,14 +151,13 @@ def replay_runs(settings: ShakeSettings, case: CaseSpec, plan: list[tuple[dict, 
         replayed.append({"run": int(run.get("run", len(replayed))),
                          "seeds": [int(p.seed) for p in packings],
                          "measured_cycles": int(run["measured_cycles"]),
-                         "cpu_time_s": run_cpu_time_s(record)})
+                         "cpu_time_s": record.engine_cpu_s})
     combined = combine_runs(records, case.freq_hz, case.accel_g, settings.coupon_n_cells)
-    combined["target"] = {"replay_of": replayed,
-                          "cells": sum(len(packings) for _, packings in plan),
-                          "measured_cycles": max(int(run["measured_cycles"]) for run, _ in plan),
-                          "cpu_time_s": sum(entry["cpu_time_s"] for entry in replayed),
-                          "wall_time_s": time.perf_counter() - started}
-    return combined
+    return combined.with_(target={
+        "replay_of": replayed, "cells": sum(len(packings) for _, packings in plan),
+        "measured_cycles": max(int(run["measured_cycles"]) for run, _ in plan),
+        "cpu_time_s": sum(entry["cpu_time_s"] for entry in replayed),
+        "wall_time_s": time.perf_counter() - started})
 
 
 def _packing_of_seed(seed: int, pilot: dict, case: CaseSpec, config: dict,

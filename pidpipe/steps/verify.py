@@ -124,7 +124,7 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
 
     settings = VerifySettings.from_config(verify)
     points = read_points(points_path)
-    records = {record["case_id"]: record for record in map(read_record, record_paths)}
+    records = {record.case_id: record for record in map(read_record, record_paths)}
     stale = stale_records(records, *configured_fidelity(case_config))
     if stale:
         raise PidpipeError(f"{len(stale)} setting(s) of verifying case records differ from the "

@@ -32,6 +32,7 @@ from pidpipe.cell.scene import CellScene
 from pidpipe.config import validate_config
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
+from pidpipe.measurement.case_record import CaseRecord
 
 logger = logging.getLogger("pidpipe.studies.fidelity")
 
@@ -63,25 +64,12 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
 _KNOBS = ("timestep_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
           "transient_min_time_s", "measured_cycles", "rotation", "friction")
 
-#: Table column -> key path in a case record.
-_RECORD_COLUMNS = {
-    "n_spheres": ("n_spheres",),
-    "dt_s": ("fidelity", "timestep_s"),
-    "dt_rayleigh_fraction": ("fidelity", "rayleigh_fraction"),
-    "youngs_modulus_scale": ("fidelity", "youngs_modulus_scale"),
-    "transient_cycles": ("fidelity", "transient_cycles"),
-    "measured_cycles": ("fidelity", "measured_cycles"),
-    "n_cycles": ("n_cycles",),
-    "rotation": ("fidelity", "rotation"),
-    "friction": ("fidelity", "friction"),
-    "steps": ("engine", "steps"),
-    "ceq_cell_ns_m": ("ceq_cell_ns_m",),
-    "ceq_cell_sem_ns_m": ("ceq_cell_sem_ns_m",),
-    "energy_drift_fraction": ("energy_drift_fraction",),
-    "cpu_time_s": ("engine", "liggghts_cpu_time_s"),
-    "wall_time_s": ("wall_time_s",),
-    "record_version": ("record_version",),
-}
+#: Table columns from a case record (:func:`_record_values`).
+_RECORD_COLUMNS = (
+    "n_spheres", "dt_s", "dt_rayleigh_fraction", "youngs_modulus_scale", "transient_cycles",
+    "measured_cycles", "n_cycles", "rotation", "friction", "steps", "ceq_cell_ns_m",
+    "ceq_cell_sem_ns_m", "energy_drift_fraction", "cpu_time_s", "wall_time_s", "record_version",
+)
 
 
 @dataclass(frozen=True)
@@ -402,13 +390,20 @@ def summarise_variants(table: pd.DataFrame, variants: list[dict], baseline: str,
 # The table from the case records
 
 
-def _get(record: dict, keys: tuple[str, ...]):
-    value = record
-    for key in keys:
-        if not isinstance(value, dict) or key not in value:
-            return None
-        value = value[key]
-    return value
+def _record_values(record: CaseRecord) -> dict:
+    """The :data:`_RECORD_COLUMNS` of a case record (None where it has no such value)."""
+    fidelity, engine = record.fidelity, record.engine
+    return {"n_spheres": record.n_spheres, "dt_s": fidelity.get("timestep_s"),
+            "dt_rayleigh_fraction": fidelity.get("rayleigh_fraction"),
+            "youngs_modulus_scale": fidelity.get("youngs_modulus_scale"),
+            "transient_cycles": fidelity.get("transient_cycles"),
+            "measured_cycles": fidelity.get("measured_cycles"), "n_cycles": record.n_cycles,
+            "rotation": fidelity.get("rotation"), "friction": fidelity.get("friction"),
+            "steps": engine.steps, "ceq_cell_ns_m": record.ceq_cell_ns_m,
+            "ceq_cell_sem_ns_m": record.ceq_cell_sem_ns_m,
+            "energy_drift_fraction": record.energy_drift_fraction,
+            "cpu_time_s": engine.get("liggghts_cpu_time_s"), "wall_time_s": record.wall_time_s,
+            "record_version": record.record_version}
 
 
 def _number(value) -> float:
@@ -469,7 +464,7 @@ def study_table(records: dict, variants: list[dict], baseline: str) -> pd.DataFr
     return table[list(TABLE_COLUMNS)]
 
 
-def _record_row(record: dict | None, case_id: str) -> dict:
+def _record_row(record: CaseRecord | None, case_id: str) -> dict:
     """A case record's columns of the study table."""
     case = CaseSpec.from_id(case_id)
     row = {"case_id": case_id, "freq_hz": case.freq_hz, "accel_g": case.accel_g,
@@ -478,10 +473,8 @@ def _record_row(record: dict | None, case_id: str) -> dict:
         row.update(status="missing", flags="", message="no record")
         row.update({column: math.nan for column in _RECORD_COLUMNS})
         return row
-    row.update(status=record.get("status", "missing"), flags=";".join(record.get("flags", [])),
-               message=record.get("message", ""))
-    for column, keys in _RECORD_COLUMNS.items():
-        value = _get(record, keys)
+    row.update(status=record.status, flags=";".join(record.flags), message=record.message or "")
+    for column, value in _record_values(record).items():
         row[column] = value if isinstance(value, bool) else _number(value)
     if row["status"] == "failed":
         row["ceq_cell_ns_m"] = row["ceq_cell_sem_ns_m"] = math.nan

@@ -22,7 +22,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from pidpipe.design.records import record_cpu_time_s
+from pidpipe.measurement.case_record import CaseRecord
 
 AGREEMENT_SEMS = 2.0
 """Two solvers agree on a case when their C_eq differ by at most this many combined SEM."""
@@ -41,8 +41,19 @@ GRID_COLUMNS: tuple[str, ...] = (
 )
 
 
-def paired_difference(liggghts: dict, dem: dict) -> dict:
-    """The cell-by-cell difference of two records of a case (cells matched by packing seed).
+def paired_difference(liggghts: CaseRecord, dem: CaseRecord) -> dict:
+    """The cell-by-cell difference of two records of a case (cells matched by packing seed):
+    :func:`paired_cell_difference` of their ``cells``."""
+    return paired_cell_difference(liggghts.cells or (), dem.cells or ())
+
+
+def paired_cell_difference(liggghts_cells, dem_cells) -> dict:
+    """The cell-by-cell difference of two lists of cells of a case (matched by packing seed).
+
+    Parameters
+    ----------
+    liggghts_cells, dem_cells : sequence of dict
+        Each cell's ``seed`` and ``ceq_cell_ns_m`` (a record's ``cells``).
 
     Returns
     -------
@@ -52,11 +63,11 @@ def paired_difference(liggghts: dict, dem: dict) -> dict:
         mean LIGGGHTS C_eq of those cells), ``z_paired`` and ``paired_agree``; NaN (and False)
         with fewer than 2 cells in both.
     """
-    def by_seed(record: dict) -> dict:
-        return {int(cell["seed"]): float(cell["ceq_cell_ns_m"]) for cell in record.get("cells") or []
+    def by_seed(cells) -> dict:
+        return {int(cell["seed"]): float(cell["ceq_cell_ns_m"]) for cell in cells
                 if "seed" in cell and math.isfinite(float(cell.get("ceq_cell_ns_m", math.nan)))}
 
-    left, right = by_seed(liggghts), by_seed(dem)
+    left, right = by_seed(liggghts_cells), by_seed(dem_cells)
     seeds = sorted(set(left) & set(right))
     nan = math.nan
     if len(seeds) < 2:
@@ -72,12 +83,12 @@ def paired_difference(liggghts: dict, dem: dict) -> dict:
             "paired_agree": bool(np.isfinite(z) and abs(z) <= AGREEMENT_SEMS)}
 
 
-def grid_row(liggghts: dict, dem: dict) -> dict:
+def grid_row(liggghts: CaseRecord, dem: CaseRecord) -> dict:
     """One row of the grid check from the two solvers' records of a case.
 
     Parameters
     ----------
-    liggghts, dem : dict
+    liggghts, dem : CaseRecord
         Case records of :func:`pidpipe.liggghts.shake.run_case` and
         :func:`pidpipe.dem.case.run_dem_case` (``failed`` records give NaN values).
 
@@ -87,39 +98,39 @@ def grid_row(liggghts: dict, dem: dict) -> dict:
         The :data:`GRID_COLUMNS` of the case.
     """
     nan = math.nan
-    value_l, sem_l = float(liggghts.get("ceq_cell_ns_m", nan)), float(liggghts.get("ceq_cell_sem_ns_m", nan))
-    value_d, sem_d = float(dem.get("ceq_cell_ns_m", nan)), float(dem.get("ceq_cell_sem_ns_m", nan))
+    value_l, sem_l = float(liggghts.ceq_cell_ns_m), float(liggghts.ceq_cell_sem_ns_m)
+    value_d, sem_d = float(dem.ceq_cell_ns_m), float(dem.ceq_cell_sem_ns_m)
     combined = math.hypot(sem_l, sem_d)
     z = (value_d - value_l) / combined if combined > 0 else nan
-    status_l, status_d = liggghts.get("status", "missing"), dem.get("status", "missing")
-    fid_l, fid_d = liggghts.get("fidelity", {}), dem.get("fidelity", {})
+    status_l, status_d = liggghts.status, dem.status
+    fid_l, fid_d = liggghts.fidelity, dem.fidelity
     return {
-        "case_id": liggghts["case_id"],
-        "freq_hz": float(liggghts["freq_hz"]),
-        "accel_g": float(liggghts["accel_g"]),
-        "fill_pct": float(liggghts["fill_pct"]),
-        "n_spheres": int(liggghts["n_spheres"]),
-        "cells_per_run": int(fid_l.get("cells_per_run", 1)),
-        "regime": liggghts.get("regime", ""),
+        "case_id": liggghts.case_id,
+        "freq_hz": float(liggghts.freq_hz),
+        "accel_g": float(liggghts.accel_g),
+        "fill_pct": float(liggghts.fill_pct),
+        "n_spheres": int(liggghts.n_spheres),
+        "cells_per_run": fid_l.cells_per_run,
+        "regime": liggghts.regime or "",
         "ceq_cell_liggghts_ns_m": value_l, "ceq_cell_liggghts_sem_ns_m": sem_l,
         "ceq_cell_dem_ns_m": value_d, "ceq_cell_dem_sem_ns_m": sem_d,
         "ratio_dem_over_liggghts": value_d / value_l if value_l else nan,
         "z_combined": z,
         "agree": bool(np.isfinite(z) and abs(z) <= AGREEMENT_SEMS),
-        "liggghts_status": status_l, "liggghts_flags": ";".join(liggghts.get("flags", [])),
-        "dem_status": status_d, "dem_flags": ";".join(dem.get("flags", [])),
+        "liggghts_status": status_l, "liggghts_flags": ";".join(liggghts.flags),
+        "dem_status": status_d, "dem_flags": ";".join(dem.flags),
         "both_ok": status_l == "ok" and status_d == "ok",
         "liggghts_measured_cycles": int(fid_l.get("measured_cycles", 0)),
         "dem_measured_cycles": int(fid_d.get("measured_cycles", 0)),
         "liggghts_transient_cycles": int(fid_l.get("transient_cycles", -1)),
         "dem_transient_cycles": int(fid_d.get("transient_cycles", -1)),
-        "liggghts_cpu_time_s": record_cpu_time_s(liggghts),
-        "dem_cpu_time_s": record_cpu_time_s(dem),
+        "liggghts_cpu_time_s": liggghts.cpu_time_s,
+        "dem_cpu_time_s": dem.cpu_time_s,
         **paired_difference(liggghts, dem),
     }
 
 
-def grid_table(pairs: list[tuple[dict, dict]]) -> pd.DataFrame:
+def grid_table(pairs: list[tuple[CaseRecord, CaseRecord]]) -> pd.DataFrame:
     """The grid check of (LIGGGHTS record, DEM record) pairs, sorted by (f, G, r)."""
     table = pd.DataFrame([grid_row(lig, dem) for lig, dem in pairs], columns=list(GRID_COLUMNS))
     return table.sort_values(["freq_hz", "accel_g", "fill_pct", "case_id"]).reset_index(drop=True)

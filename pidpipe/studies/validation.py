@@ -21,6 +21,7 @@ import pandas as pd
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.packing import Packing
 from pidpipe.config.settings import ShakeSettings
+from pidpipe.measurement.case_record import CaseRecord
 
 #: Columns of the comparison table, in order.
 TABLE_COLUMNS: tuple[str, ...] = (
@@ -34,15 +35,15 @@ TABLE_COLUMNS: tuple[str, ...] = (
 )
 
 
-def compare_records(liggghts: dict, dem: dict, coverage: float = 2.0) -> dict:
+def compare_records(liggghts: CaseRecord, dem: dict, coverage: float = 2.0) -> dict:
     """One row of the comparison table from the two solvers' records of the same case.
 
     Parameters
     ----------
-    liggghts : dict
+    liggghts : CaseRecord
         Record of :func:`pidpipe.liggghts.shake.run_case`.
     dem : dict
-        Record of :func:`pidpipe.dem.simulate_cell` (one cell).
+        Record of :func:`pidpipe.dem.simulate_cell` (one cell; not a case record).
     coverage : float
         Agreement when |E_d,dem - E_d,liggghts| <= coverage * sqrt(sem_l^2 + sem_d^2).
 
@@ -51,7 +52,7 @@ def compare_records(liggghts: dict, dem: dict, coverage: float = 2.0) -> dict:
     dict
         The :data:`TABLE_COLUMNS` of the case.
     """
-    ed_l, sem_l = float(liggghts["ed_cycle_mean_j"]), float(liggghts["ed_cycle_sem_j"])
+    ed_l, sem_l = float(liggghts.ed_cycle_mean_j), float(liggghts.ed_cycle_sem_j)
     ed_d, sem_d = float(dem["ed_cycle_mean_j"]), float(dem["ed_cycle_sem_j"])
     combined = math.hypot(sem_l, sem_d)
     ratio = ed_d / ed_l if ed_l != 0 else float("nan")
@@ -59,15 +60,15 @@ def compare_records(liggghts: dict, dem: dict, coverage: float = 2.0) -> dict:
         else float("nan")
     z = (ed_d - ed_l) / combined if combined > 0 else float("nan")
     return {
-        "case_id": liggghts.get("case_id", ""),
-        "freq_hz": float(liggghts["freq_hz"]),
-        "accel_g": float(liggghts["accel_g"]),
-        "fill_pct": float(liggghts.get("fill_pct", float("nan"))),
+        "case_id": liggghts.case_id,
+        "freq_hz": float(liggghts.freq_hz),
+        "accel_g": float(liggghts.accel_g),
+        "fill_pct": float(liggghts.fill_pct),
         "n_spheres": int(dem["n_spheres"]),
         "ed_liggghts_j": ed_l, "ed_liggghts_sem_j": sem_l,
         "ed_dem_j": ed_d, "ed_dem_sem_j": sem_d,
-        "ceq_cell_liggghts_ns_m": float(liggghts["ceq_cell_ns_m"]),
-        "ceq_cell_liggghts_sem_ns_m": float(liggghts["ceq_cell_sem_ns_m"]),
+        "ceq_cell_liggghts_ns_m": float(liggghts.ceq_cell_ns_m),
+        "ceq_cell_liggghts_sem_ns_m": float(liggghts.ceq_cell_sem_ns_m),
         "ceq_cell_dem_ns_m": float(dem["ceq_cell_ns_m"]),
         "ceq_cell_dem_sem_ns_m": float(dem["ceq_cell_sem_ns_m"]),
         "ratio_dem_over_liggghts": ratio,
@@ -75,29 +76,31 @@ def compare_records(liggghts: dict, dem: dict, coverage: float = 2.0) -> dict:
         "difference_over_combined_sem": z,
         "agree": bool(np.isfinite(z) and abs(z) <= coverage),
         "dem_balance_mismatch_fraction": float(dem.get("balance_mismatch_fraction", float("nan"))),
-        "liggghts_wall_time_s": float(liggghts.get("wall_time_s", float("nan"))),
+        "liggghts_wall_time_s": float(liggghts.wall_time_s),
         "dem_wall_time_s": float(dem.get("wall_time_s", float("nan"))),
-        "liggghts_transient_cycles": transient_cycles(liggghts),
+        "liggghts_transient_cycles": int(liggghts.fidelity.get("transient_cycles", -1)),
         "dem_transient_cycles": transient_cycles(dem),
-        "liggghts_flags": ";".join(liggghts.get("flags", [])),
+        "liggghts_flags": ";".join(liggghts.flags),
         "dem_flags": ";".join(dem.get("flags", [])),
     }
 
 
 def transient_cycles(record: dict) -> int:
-    """Cycles a solver's record discarded before its measured window (-1 if not recorded)."""
+    """Cycles a :func:`pidpipe.dem.simulate_cell` record discarded before its measured window
+    (-1 if not recorded)."""
     return int(record.get("fidelity", {}).get("transient_cycles", -1))
 
 
 def validate_case(settings: ShakeSettings, case: CaseSpec, packing: Packing, workdir: str | Path,
-                  coverage: float = 2.0) -> tuple[dict, dict, dict]:
+                  coverage: float = 2.0) -> tuple[dict, CaseRecord, dict]:
     """Shake one case with both solvers from the same settings and packing.
 
     Returns
     -------
     row : dict
         :func:`compare_records` of the two records.
-    liggghts_record, dem_record : dict
+    liggghts_record : CaseRecord
+    dem_record : dict
     """
     from pidpipe.cell.scene import CellScene
     from pidpipe.dem import simulate_cell

@@ -258,7 +258,7 @@ def test_a_cancelled_case_job_is_resubmitted_once_and_the_campaign_goes_on(campa
     assert campaigns["finished_then"]
     record = read_record(campaigns["cluster"] / "results" / "cases"
                          / f"{campaigns['cancelled_case']}.json")
-    assert record["status"] in ("ok", "flagged"), record["status"]
+    assert record.status in ("ok", "flagged"), record.status
 
 
 def test_an_interrupted_campaign_cancels_its_jobs_and_resumes_with_only_the_missing_cases(

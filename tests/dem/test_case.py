@@ -17,6 +17,7 @@ from pidpipe.dem.case import BALANCE_TOLERANCE, run_dem_case, start_dem_case
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.shake import run_case
 from pidpipe.measurement.adaptive import run_to_target
+from pidpipe.measurement.case_record import RECORD_VERSION, CaseRecord
 from pidpipe.steps.cases import case_runner, failed_record
 from tests.conftest import short_config
 
@@ -53,33 +54,44 @@ def _keys(record: dict, prefix: str = "") -> set[str]:
 def test_a_dem_record_has_every_key_of_a_liggghts_record(both):
     liggghts, dem = both
     # not compared: LIGGGHTS' own loop/CPU figures
-    missing = {key for key in _keys(liggghts) - _keys(dem) if not key.startswith("engine.liggghts_")}
+    missing = {key for key in _keys(liggghts.to_dict()) - _keys(dem.to_dict())
+               if not key.startswith("engine.liggghts_")}
     assert not missing
     # the bed's motion within the cycle (issue 17), sampled by both engines alike
-    assert _keys(dem["motion"]) == _keys(liggghts["motion"])
+    assert _keys(dem.motion) == _keys(liggghts.motion)
     for key in ("window_steps", "phase_bins"):
-        assert dem["motion"][key] == liggghts["motion"][key]
-    for name, quantity in liggghts["motion"]["profile"].items():
+        assert dem.motion[key] == liggghts.motion[key]
+    for name, quantity in liggghts.motion["profile"].items():
         if isinstance(quantity, dict):
-            assert len(dem["motion"]["profile"][name]["mean"]) == len(quantity["mean"]), name
-    assert dem["motion"]["cell_features"][0].keys() == liggghts["motion"]["cell_features"][0].keys()
-    assert dem["regime"] == dem["motion"]["cell_regimes"][0]
-    assert liggghts["solver"] == "liggghts" and dem["solver"] == "numba-dem"
-    assert dem["engine"]["name"] == dem["fidelity"]["engine"] == "dem"
-    assert liggghts["engine"]["name"] == liggghts["fidelity"]["engine"] == "liggghts"
-    assert dem["fidelity"]["seed"] == liggghts["fidelity"]["seed"]
-    assert dem["fidelity"]["timestep_s"] == liggghts["fidelity"]["timestep_s"]
-    assert len(dem["cycles"]["dissipated_j"]) == len(liggghts["cycles"]["dissipated_j"]) == 30
-    json.dumps(dem)
+            assert len(dem.motion["profile"][name]["mean"]) == len(quantity["mean"]), name
+    assert dem.motion["cell_features"][0].keys() == liggghts.motion["cell_features"][0].keys()
+    assert dem.regime == dem.motion["cell_regimes"][0]
+    assert liggghts.solver == "liggghts" and dem.solver == "numba-dem"
+    assert dem.engine["name"] == dem.fidelity["engine"] == "dem"
+    assert liggghts.engine["name"] == liggghts.fidelity["engine"] == "liggghts"
+    assert dem.fidelity["seed"] == liggghts.fidelity["seed"]
+    assert dem.fidelity["timestep_s"] == liggghts.fidelity["timestep_s"]
+    assert len(dem.cycles["dissipated_j"]) == len(liggghts.cycles["dissipated_j"]) == 30
+    json.loads(dem.to_json())
     assert "numba-dem" in format_result(dem)
+
+
+def test_both_engines_return_a_case_record_that_reads_back_from_its_json(both, tmp_path):
+    for record, name in zip(both, ("liggghts", "dem")):
+        assert isinstance(record, CaseRecord) and record.record_version == RECORD_VERSION
+        path = record.write(tmp_path / f"{name}.json")
+        back = CaseRecord.read(path)
+        assert back.to_json() == path.read_text() == record.to_json()
+        assert back.engine_name == back.fidelity.engine == name
+        assert back.fidelity.seeds == [back.fidelity.seed] and back.engine_cpu_s > 0
 
 
 def test_both_engines_give_the_same_ceq_within_their_errors(both):
     liggghts, dem = both
-    combined = math.hypot(liggghts["ceq_cell_sem_ns_m"], dem["ceq_cell_sem_ns_m"])
-    assert abs(dem["ceq_cell_ns_m"] - liggghts["ceq_cell_ns_m"]) < 3.0 * combined
-    assert dem["status"] == "ok", dem["flags"]
-    assert dem["ledger_mismatch_of_gross_work"] < BALANCE_TOLERANCE
+    combined = math.hypot(liggghts.ceq_cell_sem_ns_m, dem.ceq_cell_sem_ns_m)
+    assert abs(dem.ceq_cell_ns_m - liggghts.ceq_cell_ns_m) < 3.0 * combined
+    assert dem.status == "ok", dem.flags
+    assert dem.ledger_mismatch_of_gross_work < BALANCE_TOLERANCE
 
 
 def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, both):
@@ -88,13 +100,13 @@ def test_k_cells_are_one_batch_whose_first_cell_is_the_packing_alone(packings, b
     _, alone = both
     config = short_config(transient=10, measured=20)
     together = run_dem_case(ShakeSettings.from_config(config), CASE, packings)
-    assert together["fidelity"]["cells_per_run"] == 2 and len(together["cells"]) == 2
-    assert together["fidelity"]["seeds"] == [p.seed for p in packings]
-    first = np.array(together["cells"][0]["dissipated_j"])
-    np.testing.assert_allclose(first, alone["cycles"]["dissipated_j"], rtol=1e-9)
-    mean_cell = np.mean([c["ceq_cell_ns_m"] for c in together["cells"]])
-    assert together["ceq_cell_ns_m"] == pytest.approx(mean_cell, rel=1e-9)
-    assert together["ceq_cell_sem_ns_m"] >= together["ceq_cell_cycle_sem_ns_m"]
+    assert together.fidelity["cells_per_run"] == 2 and len(together.cells) == 2
+    assert together.fidelity["seeds"] == [p.seed for p in packings]
+    first = np.array(together.cells[0]["dissipated_j"])
+    np.testing.assert_allclose(first, alone.cycles["dissipated_j"], rtol=1e-9)
+    mean_cell = np.mean([c["ceq_cell_ns_m"] for c in together.cells])
+    assert together.ceq_cell_ns_m == pytest.approx(mean_cell, rel=1e-9)
+    assert together.ceq_cell_sem_ns_m >= together.ceq_cell_cycle_sem_ns_m
 
 
 def test_a_dem_case_reaches_its_target_by_continuing_its_run_and_lists_every_part(packings, tmp_path):
@@ -108,7 +120,7 @@ def test_a_dem_case_reaches_its_target_by_continuing_its_run_and_lists_every_par
     config["fidelity"].update(target_relative_sem=0.05, max_measured_cycles=200)
     settings = ShakeSettings.from_config(config)
     record = measure_case(settings, CASE, [packings[0]], tmp_path)
-    target = record["target"]
+    target = record.target
     runs = target["runs"]
     assert runs[0]["kind"] == "pilot" and runs[0]["measured_cycles"] == 8
     # one packing and no pool to pour more from: only cycles can be added, by continuing
@@ -116,21 +128,21 @@ def test_a_dem_case_reaches_its_target_by_continuing_its_run_and_lists_every_par
     assert all(run["run"] == 0 and run["used"] for run in runs)
     for before, run in zip(runs, runs[1:]):
         assert run["from_measured_cycles"] == before["measured_cycles"] < run["measured_cycles"]
-    assert record["fidelity"]["measured_cycles"] == target["measured_cycles"] == runs[-1]["measured_cycles"]
-    assert target["reached"] or "target_not_reached" in record["flags"]
+    assert record.fidelity["measured_cycles"] == target["measured_cycles"] == runs[-1]["measured_cycles"]
+    assert target["reached"] or "target_not_reached" in record.flags
     assert target["cpu_time_s"] == pytest.approx(sum(run["cpu_time_s"] for run in runs))
     assert target["cpu_time_s"] > 0
     longer = run_dem_case(ShakeSettings.from_config(short_config(
         transient=10, measured=target["measured_cycles"])), CASE, packings[0])
-    assert record["cycles"] == longer["cycles"] and record["flags"] == longer["flags"] + (
+    assert record.cycles == longer.cycles and list(record.flags) == list(longer.flags) + (
         [] if target["reached"] else ["target_not_reached"])
-    assert record["ceq_cell_ns_m"] == longer["ceq_cell_ns_m"]
-    assert record["ceq_cell_sem_ns_m"] == longer["ceq_cell_sem_ns_m"]
+    assert record.ceq_cell_ns_m == longer.ceq_cell_ns_m
+    assert record.ceq_cell_sem_ns_m == longer.ceq_cell_sem_ns_m
 
 
-def _untimed(record: dict) -> str:
+def _untimed(record) -> str:
     """A record as JSON without what only timing sets (engine, wall time)."""
-    return json.dumps({key: value for key, value in record.items()
+    return json.dumps({key: value for key, value in record.to_dict().items()
                        if key not in ("engine", "wall_time_s")}, sort_keys=True)
 
 
@@ -140,15 +152,15 @@ def test_a_continued_dem_case_is_the_longer_run_from_the_pour_to_the_last_bit(pa
     the last bit; only the timing differs, the continuation's own."""
     config = short_config(transient=10, measured=8)
     run = start_dem_case(ShakeSettings.from_config(config), CASE, packings)
-    assert run.record["fidelity"]["measured_cycles"] == 8
+    assert run.record.fidelity["measured_cycles"] == 8
     continued = run.extend(20)
     longer = run_dem_case(ShakeSettings.from_config(short_config(transient=10, measured=20)),
                           CASE, packings)
-    assert len(continued["cycles"]["dissipated_j"]) == 30
+    assert len(continued.cycles["dissipated_j"]) == 30
     assert _untimed(continued) == _untimed(longer)
-    assert continued["engine"]["continued_from_cycles"] == 18
-    assert continued["engine"]["steps"] == 12 * longer["fidelity"]["steps_per_cycle"]
-    assert longer["engine"]["continued_from_cycles"] == 0
+    assert continued.engine["continued_from_cycles"] == 18
+    assert continued.engine["steps"] == 12 * longer.fidelity["steps_per_cycle"]
+    assert longer.engine["continued_from_cycles"] == 0
     with pytest.raises(ValueError, match="goes on to more"):
         run.extend(20)
 
@@ -160,7 +172,7 @@ def test_the_engine_switch_picks_the_runner_and_names_the_solver_of_a_failed_cas
     assert case_runner(ShakeSettings.from_config(dem)) is run_dem_case
     assert case_runner(ShakeSettings.from_config(config)) is run_case
     failed = failed_record(ShakeSettings.from_config(dem), CASE, 5, [1], "boom")
-    assert failed["solver"] == "numba-dem" and failed["fidelity"]["engine"] == "dem"
+    assert failed.solver == "numba-dem" and failed.fidelity["engine"] == "dem"
 
 
 def test_a_dem_case_plans_its_runs_with_the_stored_dem_cost_model(packings, tmp_path):
@@ -185,8 +197,8 @@ def test_a_dem_case_plans_its_runs_with_the_stored_dem_cost_model(packings, tmp_
     settings = ShakeSettings.from_config(config)
     steps = (CellScene.of(settings).timestep(CASE.freq_hz).steps_per_cycle
              * (settings.sampling.transient_cycles_at(CASE.freq_hz) + 8))
-    pilot = record["target"]["runs"][0]
-    assert pilot["kind"] == "pilot" and record["solver"] == "numba-dem"
+    pilot = record.target["runs"][0]
+    assert pilot["kind"] == "pilot" and record.solver == "numba-dem"
     assert pilot["planned_cpu_s"] == pytest.approx(model.run_cpu_s(2, packings[0].n_spheres, steps))
 
 
@@ -222,7 +234,7 @@ def test_cases_shaken_in_one_job_get_the_records_and_logs_of_jobs_of_their_own(p
     alone = simulate_case(case_config, cases[1].case_id, paths[1:], str(tmp_path / "alone.json"),
                           str(tmp_path / "alone"), str(tmp_path / "alone.log"))
     same = json.dumps(_without_timing(records[1]), sort_keys=True)    # NaN == NaN here
-    assert same == json.dumps(_without_timing(alone), sort_keys=True)
+    assert same == json.dumps(_without_timing(alone.to_dict()), sort_keys=True)
     for case, record in zip(cases, records):
         assert record["case_id"] == case.case_id and record["solver"] == "numba-dem"
         log = (tmp_path / "logs" / f"{case.case_id}.log").read_text()

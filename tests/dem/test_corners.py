@@ -30,5 +30,5 @@ pytestmark = pytest.mark.engine
 def corner_records(tmp_path_factory):
     """Records of every corner at dt and dt/2 from the compiled DEM."""
     records = shake_corners(tmp_path_factory, run_dem_case)
-    assert all(r["solver"] == "numba-dem" for pair in records.values() for r in pair)
+    assert all(r.solver == "numba-dem" for pair in records.values() for r in pair)
     return records

@@ -11,9 +11,7 @@ from tests.steps.test_steps import record
 
 
 def _seen(cell_regimes, **kwargs):
-    seen = record(**kwargs)
-    seen["motion"] = {"cell_regimes": list(cell_regimes)}
-    return seen
+    return record(**kwargs).with_(motion={"cell_regimes": list(cell_regimes)})
 
 
 def test_regime_is_that_of_most_cells_over_the_replicates():

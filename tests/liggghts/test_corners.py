@@ -82,44 +82,44 @@ def corner_id(corner) -> str:
 @pytest.mark.parametrize("corner", CORNERS, ids=corner_id)
 def test_no_sphere_leaves_the_cell(corner_records, corner):
     for record in corner_records[corner]:
-        assert not {"sphere_below_floor", "sphere_above_lid"} & set(record["flags"])
-        assert record["status"] in ("ok", "flagged")
+        assert not {"sphere_below_floor", "sphere_above_lid"} & set(record.flags)
+        assert record.status in ("ok", "flagged")
 
 
 @pytest.mark.parametrize("corner", CORNERS, ids=corner_id)
 def test_timestep_check_passes(corner_records, corner):
     for record, fraction in zip(corner_records[corner], (0.2, 0.1)):
-        assert "timestep_check" not in record["flags"]
-        assert record["fidelity"]["rayleigh_fraction"] <= fraction * (1 + 1e-9)
+        assert "timestep_check" not in record.flags
+        assert record.fidelity["rayleigh_fraction"] <= fraction * (1 + 1e-9)
 
 
 @pytest.mark.parametrize("corner", CORNERS, ids=corner_id)
 def test_dissipation_is_not_negative_beyond_its_uncertainty(corner_records, corner):
     for record in corner_records[corner]:
-        assert "negative_dissipation" not in record["flags"]
-        mean, sem = record["ed_cycle_mean_j"], record["ed_cycle_sem_j"]
+        assert "negative_dissipation" not in record.flags
+        mean, sem = record.ed_cycle_mean_j, record.ed_cycle_sem_j
         assert mean + NEGATIVE_SEMS * sem >= 0.0
 
 
 @pytest.mark.parametrize("corner", CORNERS, ids=corner_id)
 def test_the_transient_is_detected_on_the_series(corner_records, corner):
     for record in corner_records[corner]:
-        fidelity = record["fidelity"]
+        fidelity = record.fidelity
         assert fidelity["transient_cycles"] == max(fidelity["transient_cycles_configured"],
-                                                   record["detected_transient_cycles"])
-        assert record["n_cycles"] + fidelity["transient_cycles"] == len(record["cycles"]["dissipated_j"])
-        assert math.isfinite(record["halves_p_value"])
+                                                   record.detected_transient_cycles)
+        assert record.n_cycles + fidelity["transient_cycles"] == len(record.cycles["dissipated_j"])
+        assert math.isfinite(record.halves_p_value)
 
 
 @pytest.mark.parametrize("corner", CORNERS, ids=corner_id)
 def test_ceq_converges_when_the_timestep_is_halved_or_the_case_is_flagged(corner_records, corner):
     record, halved = corner_records[corner]
-    if record["status"] == "ok" and halved["status"] == "ok":
-        difference = abs(record["ceq_cell_ns_m"] - halved["ceq_cell_ns_m"])
-        combined = math.hypot(record["ceq_cell_sem_ns_m"], halved["ceq_cell_sem_ns_m"])
+    if record.status == "ok" and halved.status == "ok":
+        difference = abs(record.ceq_cell_ns_m - halved.ceq_cell_ns_m)
+        combined = math.hypot(record.ceq_cell_sem_ns_m, halved.ceq_cell_sem_ns_m)
         assert difference <= AGREEMENT_SEMS * combined
     else:
-        for flagged in (r for r in (record, halved) if r["status"] != "ok"):
+        for flagged in (r for r in (record, halved) if r.status != "ok"):
             table = records_to_table([flagged])
             fitted, left_out = split_usable(table)
             assert fitted.empty and len(left_out) == 1
@@ -129,6 +129,6 @@ def test_ceq_converges_when_the_timestep_is_halved_or_the_case_is_flagged(corner
 def test_the_impacting_corners_are_sound_without_flags(corner_records):
     # The corners where spheres fly (10 g) must not pass the checks merely by being flagged.
     impacting = [corner for corner in CORNERS if corner[1] > 1.0]
-    flagged = [(corner_id(c), r["flags"]) for c in impacting for r in corner_records[c]
-               if r["status"] != "ok"]
+    flagged = [(corner_id(c), r.flags) for c in impacting for r in corner_records[c]
+               if r.status != "ok"]
     assert not flagged

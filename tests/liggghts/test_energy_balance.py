@@ -23,7 +23,7 @@ def test_no_dissipation_where_none_is_modelled(tmp_path, half_fill_packing):
         pair["restitution"] = 1.0
     cfg["fidelity"]["friction"] = False
     record = run_case(ShakeSettings.from_config(cfg), CaseSpec(500, 5, 50), half_fill_packing, tmp_path)
-    cycles = record["cycles"]
+    cycles = record.cycles
     dissipated = np.array(cycles["dissipated_j"][2:])
     exchanged = np.array(cycles["gross_work_j"][2:])
     elastic = np.array(cycles["elastic_j"][2:])
@@ -37,12 +37,12 @@ def test_no_dissipation_where_none_is_modelled(tmp_path, half_fill_packing):
 def test_balance_closes_and_is_reported_cycle_by_cycle(tmp_path, half_fill_packing):
     cfg = short_config(transient=3, measured=12)
     record = run_case(ShakeSettings.from_config(cfg), CaseSpec(1000, 10, 50), half_fill_packing, tmp_path)
-    cycles = record["cycles"]
+    cycles = record.cycles
     assert len(cycles["dissipated_j"]) == 15 and len(cycles["energy_j"]) == 16
     measured = np.array(cycles["dissipated_j"][3:])
     assert measured.mean() > 0
-    assert record["ed_cycle_mean_j"] == pytest.approx(measured.mean())
-    assert record["ed_cycle_sem_j"] > 0
+    assert record.ed_cycle_mean_j == pytest.approx(measured.mean())
+    assert record.ed_cycle_sem_j > 0
     # dissipation per cycle equals wall work minus the change of stored energy, cycle by cycle
     work = np.array(cycles["wall_work_j"])
     energy = np.array(cycles["energy_j"])

@@ -28,10 +28,10 @@ def _check_profile(record, closure=None):
     """The phase profile closes: its dissipation over a cycle is the record's E_d (to
     ``closure``, relative), and the floor less the lid carries the bed's weight on average (the
     side walls' friction the rest)."""
-    profile = record["motion"]["profile"]
+    profile = record.motion["profile"]
     if closure is not None:
         dissipated = np.mean(profile["dissipation_w"]["mean"]) * profile["period_s"]
-        assert dissipated == pytest.approx(record["ed_cycle_mean_j"], rel=closure)
+        assert dissipated == pytest.approx(record.ed_cycle_mean_j, rel=closure)
     carried = np.mean(profile["floor_force_n"]["mean"]) - np.mean(profile["lid_force_n"]["mean"])
     assert 0.8 < carried / profile["bed_weight_n"] < 1.2
 
@@ -44,11 +44,11 @@ def _check_profile(record, closure=None):
 def test_regime_of_half_fill_cases(tmp_path, half_fill_packing, freq_hz, accel_g, measured, expected):
     record = run_case(ShakeSettings.from_config(_config(measured=measured)), CaseSpec(freq_hz, accel_g, 50), half_fill_packing,
                       tmp_path)
-    features = record["motion"]["cell_features"][0]
-    assert record["regime"] == expected, features
-    assert record["motion"]["cell_regimes"] == [expected]
+    features = record.motion["cell_features"][0]
+    assert record.regime == expected, features
+    assert record.motion["cell_regimes"] == [expected]
     if expected == "period_doubling":
-        assert record["ed_lag1_autocorrelation"] < -0.5
+        assert record.ed_lag1_autocorrelation < -0.5
     if expected != "no_lift_off":
         _check_profile(record)
 
@@ -69,8 +69,8 @@ def test_a_nearly_full_cell_at_50_hz_and_10_g_hits_the_lid(tmp_path):
     cfg = _config(measured=8)
     packing = pour(PourSettings.from_config(cfg), 90, 0, tmp_path / "pour")
     record = run_case(ShakeSettings.from_config(cfg), CaseSpec(50, 10, 90), packing, tmp_path / "shake")
-    assert record["regime"] == "lid_impacts", record["motion"]["cell_features"]
-    assert max(record["motion"]["profile"]["lid_force_n"]["mean"]) > record["motion"]["profile"]["bed_weight_n"]
+    assert record.regime == "lid_impacts", record.motion["cell_features"]
+    assert max(record.motion["profile"]["lid_force_n"]["mean"]) > record.motion["profile"]["bed_weight_n"]
 
 
 def test_sampling_the_motion_and_the_movie_leave_the_physics_alone(tmp_path, half_fill_packing):
@@ -83,23 +83,23 @@ def test_sampling_the_motion_and_the_movie_leave_the_physics_alone(tmp_path, hal
     plain_cfg = _config(transient=3, measured=4)
     plain_cfg["inspection"]["phase_windows_per_cycle"] = 0
     plain = run_case(ShakeSettings.from_config(plain_cfg), case, packings, tmp_path / "plain")
-    assert "motion" not in plain and plain["regime"] == "impacting"
+    assert plain.motion is None and plain.regime == "impacting"
     movie = MovieSettings(frames_per_cycle=5, cycles=2)
     seen = run_case(ShakeSettings.from_config(cfg), case, packings, tmp_path / "seen", movie=movie, movie_dir=tmp_path / "movie")
-    assert seen["cycles"] == plain["cycles"]
-    assert seen["ceq_cell_ns_m"] == plain["ceq_cell_ns_m"]
-    assert len(seen["motion"]["cell_regimes"]) == 2
+    assert seen.cycles == plain.cycles
+    assert seen.ceq_cell_ns_m == plain.ceq_cell_ns_m
+    assert len(seen.motion["cell_regimes"]) == 2
 
     entries = read_pvd(tmp_path / "movie" / "movie.pvd")
     spheres = [e for e in entries if e[1] == 0]
     walls = [e for e in entries if e[1] == 1]
-    assert len(spheres) == len(walls) == 10 == seen["movie"]["frames"]
+    assert len(spheres) == len(walls) == 10 == seen.movie["frames"]
     n_spheres = half_fill_packing.n_spheres + second.n_spheres
     cell = CellScene.from_config(cfg).cell
     offsets = np.unique(np.round(np.array(meshio.read(walls[0][2]).points)[:, :2], 9), axis=0)
     assert len(offsets) > 6    # two cells' corners
     period = 1.0 / case.freq_hz
-    amplitude = seen["displacement_amplitude_m"]
+    amplitude = seen.displacement_amplitude_m
     rest = None
     for time, _, path in walls:
         mesh = meshio.read(path)
@@ -110,7 +110,7 @@ def test_sampling_the_motion_and_the_movie_leave_the_physics_alone(tmp_path, hal
                                    atol=1e-15)
     np.testing.assert_allclose(rest[:, 2].min(), cell.floor_z_m)
     times = [t for t, _, _ in spheres]
-    assert times[-1] < seen["fidelity"]["steps_per_cycle"] * 7 * seen["fidelity"]["timestep_s"] + 1e-12
+    assert times[-1] < seen.fidelity["steps_per_cycle"] * 7 * seen.fidelity["timestep_s"] + 1e-12
     assert times[0] >= 5 * period - 1e-12      # the last two of 7 cycles
     for _, _, path in spheres:
         mesh = meshio.read(path)

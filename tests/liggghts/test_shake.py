@@ -11,7 +11,7 @@ from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.errors import EngineError, PackingError
 from pidpipe.liggghts.pour import pour
 from pidpipe.liggghts.process import run_deck
-from pidpipe.liggghts.shake import run_case, write_record
+from pidpipe.liggghts.shake import run_case
 from tests.conftest import short_config
 
 pytestmark = pytest.mark.engine
@@ -22,15 +22,15 @@ def test_ceq_is_finite_positive_and_reproducible(tmp_path, half_fill_packing):
     case = CaseSpec(500, 5, 50)
     first = run_case(ShakeSettings.from_config(cfg), case, half_fill_packing, tmp_path / "a")
     second = run_case(ShakeSettings.from_config(cfg), case, half_fill_packing, tmp_path / "b")
-    assert math.isfinite(first["ceq_cell_ns_m"]) and first["ceq_cell_ns_m"] > 0
-    assert first["ceq_cell_sem_ns_m"] > 0
-    assert first["ceq_coupon_ns_m"] == pytest.approx(441 * first["ceq_cell_ns_m"])
-    assert second["ceq_cell_ns_m"] == first["ceq_cell_ns_m"]
-    assert second["cycles"] == first["cycles"]
-    fidelity = first["fidelity"]
+    assert math.isfinite(first.ceq_cell_ns_m) and first.ceq_cell_ns_m > 0
+    assert first.ceq_cell_sem_ns_m > 0
+    assert first.ceq_coupon_ns_m == pytest.approx(441 * first.ceq_cell_ns_m)
+    assert second.ceq_cell_ns_m == first.ceq_cell_ns_m
+    assert second.cycles == first.cycles
+    fidelity = first.fidelity
     assert fidelity["rayleigh_fraction"] <= 0.2 and fidelity["steps_per_cycle"] * fidelity["timestep_s"] == pytest.approx(1 / 500)
-    assert "3.8" in first["engine"]["liggghts_version"]
-    path = write_record(first, tmp_path / "record.json")
+    assert "3.8" in first.engine["liggghts_version"]
+    path = first.write(tmp_path / "record.json")
     assert json.loads(path.read_text())["case_id"] == "f500Hz_G5_r50pct_rep0"
 
 
@@ -79,6 +79,6 @@ def test_a_longer_window_repeats_the_shorter_one_cycle_for_cycle(tmp_path, half_
     case = CaseSpec(1000.0, 10.0, 50.0)
     short = run_case(ShakeSettings.from_config(short_config(transient=3, measured=4)), case, half_fill_packing, tmp_path / "short")
     long = run_case(ShakeSettings.from_config(short_config(transient=3, measured=8)), case, half_fill_packing, tmp_path / "long")
-    n = len(short["cycles"]["dissipated_j"])
-    assert long["cycles"]["dissipated_j"][:n] == short["cycles"]["dissipated_j"]
-    assert len(long["cycles"]["dissipated_j"]) == n + 4
+    n = len(short.cycles["dissipated_j"])
+    assert long.cycles["dissipated_j"][:n] == short.cycles["dissipated_j"]
+    assert len(long.cycles["dissipated_j"]) == n + 4

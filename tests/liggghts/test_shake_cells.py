@@ -40,9 +40,9 @@ def test_the_first_cell_is_the_packing_shaken_alone(runs):
     on it: the same trajectory. Its ledger differs only by how its wall work is written (the
     cell's own power against the mesh's, 6 digits each)."""
     together, alone = runs
-    cell = np.array(together["cells"][0]["dissipated_j"])
-    single = np.array(alone[0]["cycles"]["dissipated_j"])
-    exchanged = np.mean(alone[0]["cycles"]["gross_work_j"])
+    cell = np.array(together.cells[0]["dissipated_j"])
+    single = np.array(alone[0].cycles["dissipated_j"])
+    exchanged = np.mean(alone[0].cycles["gross_work_j"])
     assert np.max(np.abs(cell - single)) < 1e-5 * exchanged
 
 
@@ -50,34 +50,34 @@ def test_moved_cells_are_the_same_physics(runs):
     """Cells moved along x start from positions rounded differently, so their trajectories part
     (chaos), but their C_eq must agree with the same packing shaken alone within their errors."""
     together, alone = runs
-    for cell, single in zip(together["cells"][1:], alone[1:]):
-        combined = math.hypot(cell["ceq_cell_sem_ns_m"], single["ceq_cell_sem_ns_m"])
-        assert abs(cell["ceq_cell_ns_m"] - single["ceq_cell_ns_m"]) < 3.0 * combined
+    for cell, single in zip(together.cells[1:], alone[1:]):
+        combined = math.hypot(cell["ceq_cell_sem_ns_m"], single.ceq_cell_sem_ns_m)
+        assert abs(cell["ceq_cell_ns_m"] - single.ceq_cell_ns_m) < 3.0 * combined
 
 
 def test_the_cells_ledgers_add_up_to_the_mesh(runs):
     together, _ = runs
-    assert together["ledger_mismatch_of_gross_work"] < LEDGER_TOLERANCE
-    assert "ledger_mismatch" not in together["flags"]
+    assert together.ledger_mismatch_of_gross_work < LEDGER_TOLERANCE
+    assert "ledger_mismatch" not in together.flags
 
 
 def test_the_case_reports_the_mean_cell_with_the_spread_between_cells(runs):
     together, _ = runs
-    values = np.array([cell["ceq_cell_ns_m"] for cell in together["cells"]])
-    assert together["ceq_cell_ns_m"] == pytest.approx(values.mean(), rel=1e-12)
+    values = np.array([cell["ceq_cell_ns_m"] for cell in together.cells])
+    assert together.ceq_cell_ns_m == pytest.approx(values.mean(), rel=1e-12)
     between = values.std(ddof=1) / math.sqrt(3)
-    assert together["ceq_cell_between_cells_sem_ns_m"] == pytest.approx(between, rel=1e-12)
-    assert together["ceq_cell_sem_ns_m"] == pytest.approx(
-        max(between, together["ceq_cell_cycle_sem_ns_m"]), rel=1e-12)
-    assert together["ceq_coupon_sem_ns_m"] == pytest.approx(441 * together["ceq_cell_sem_ns_m"])
-    assert together["fidelity"]["cells_per_run"] == 3
-    assert together["fidelity"]["seeds"] == [cell["seed"] for cell in together["cells"]]
-    assert len(set(together["fidelity"]["seeds"])) == 3
+    assert together.ceq_cell_between_cells_sem_ns_m == pytest.approx(between, rel=1e-12)
+    assert together.ceq_cell_sem_ns_m == pytest.approx(
+        max(between, together.ceq_cell_cycle_sem_ns_m), rel=1e-12)
+    assert together.ceq_coupon_sem_ns_m == pytest.approx(441 * together.ceq_cell_sem_ns_m)
+    assert together.fidelity["cells_per_run"] == 3
+    assert together.fidelity["seeds"] == [cell["seed"] for cell in together.cells]
+    assert len(set(together.fidelity["seeds"])) == 3
     assert "3 cells" in format_result(together) and "spread between cells" in format_result(together)
 
 
 def test_one_cell_reports_no_spread(runs):
     _, alone = runs
-    assert math.isnan(alone[0]["ceq_cell_between_cells_sem_ns_m"])
-    assert alone[0]["ceq_cell_sem_ns_m"] == alone[0]["ceq_cell_cycle_sem_ns_m"]
-    assert alone[0]["cells"] == []
+    assert math.isnan(alone[0].ceq_cell_between_cells_sem_ns_m)
+    assert alone[0].ceq_cell_sem_ns_m == alone[0].ceq_cell_cycle_sem_ns_m
+    assert list(alone[0].cells) == []

@@ -37,7 +37,7 @@ def targeted(tmp_path_factory):
 
 def test_the_case_reaches_its_target(targeted):
     _, record, written, _ = targeted
-    assert record["target"]["reached"], record["target"]
+    assert record.target["reached"], record.target
     assert written["ceq_cell_sem_ns_m"] <= TARGET * written["ceq_cell_ns_m"]
     assert TARGET_NOT_REACHED not in written["flags"]
     assert len(written["target"]["runs"]) >= 2          # the pilot did not reach 3 % by itself

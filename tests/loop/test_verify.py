@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from pidpipe.cases import CaseSpec
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.design.surrogate import fit_surrogate
 from pidpipe.errors import PidpipeError
 from pidpipe.loop.verify import (
@@ -133,12 +134,12 @@ def test_the_surrogate_is_read_at_the_designs_fill_and_a_fill_off_its_domain_is_
 
 def record(case_id, value, sem, status="ok", flags=()):
     case = CaseSpec.from_id(case_id)
-    return {"case_id": case_id, "status": status, "flags": list(flags), "solver": "numba-dem",
-            "freq_hz": case.freq_hz, "accel_g": case.accel_g, "fill_pct": case.fill_pct,
-            "ceq_coupon_ns_m": value, "ceq_coupon_sem_ns_m": sem, "n_cycles": 10,
-            "fidelity": {"engine": "dem", "cells_per_run": 1, "transient_cycles": 30,
-                         "steps_per_cycle": 2000},
-            "engine": {"name": "dem", "cpu_time_s": 1.5}}
+    return CaseRecord(case_id=case_id, status=status, flags=list(flags), solver="numba-dem",
+                      freq_hz=case.freq_hz, accel_g=case.accel_g, fill_pct=case.fill_pct,
+                      ceq_coupon_ns_m=value, ceq_coupon_sem_ns_m=sem, n_cycles=10,
+                      fidelity={"engine": "dem", "cells_per_run": 1, "transient_cycles": 30,
+                                "steps_per_cycle": 2000},
+                      engine={"name": "dem", "cpu_time_s": 1.5})
 
 
 def test_compare_flags_a_surrogate_that_is_off_and_keeps_a_shared_case_in_each_design():
@@ -190,9 +191,9 @@ def test_a_record_made_with_other_settings_is_named():
     fidelity = {"engine": "dem", "timestep_rayleigh_fraction_config": 0.2, "youngs_modulus_scale": 1.0,
                 "measured_cycles": 10, "rotation": True, "friction": True, "cells_per_run": 1}
     current = record("f600Hz_G6_r47.619pct_rep0", 50.0, 1.0)
-    current["fidelity"].update(fidelity)
+    current.fidelity.update(fidelity)
     old = record("f900Hz_G6_r47.619pct_rep0", 50.0, 1.0)
-    old["fidelity"].update(fidelity, engine="liggghts")
+    old.fidelity.update(fidelity, engine="liggghts")
     assert stale_records({"a": current}, fidelity, None) == []
     stale = stale_records({"a": current, "b": old}, fidelity, 0.05)
     assert stale == ["a: target_relative_sem None (configured 0.05)", "b: engine 'liggghts' (configured 'dem')",
@@ -206,11 +207,13 @@ def test_a_record_the_allocation_extended_is_current():
     fidelity = {"engine": "dem", "timestep_rayleigh_fraction_config": 0.2, "youngs_modulus_scale": 1.0,
                 "measured_cycles": 10, "rotation": True, "friction": True, "cells_per_run": 1}
     extended = record("f475Hz_G1.5_r23.81pct_rep0", 5.2, 2.0)
-    extended["fidelity"].update(fidelity, measured_cycles=400, cells_per_run=20)
-    extended["target"] = {"relative_sem": 0.05, "reached": False, "cells": 20, "measured_cycles": 400,
-                          "runs": [{"run": 0, "kind": "pilot", "cells": 1, "measured_cycles": 10},
-                                   {"run": 1, "kind": "new", "cells": 19, "measured_cycles": 400}]}
+    extended.fidelity.update(fidelity, measured_cycles=400, cells_per_run=20)
+    target = {"relative_sem": 0.05, "reached": False, "cells": 20, "measured_cycles": 400,
+              "runs": [{"run": 0, "kind": "pilot", "cells": 1, "measured_cycles": 10},
+                       {"run": 1, "kind": "new", "cells": 19, "measured_cycles": 400}]}
+    extended = extended.with_(target=target)
     assert stale_records({"a": extended}, fidelity, 0.05) == []
-    other_pilot = copy.deepcopy(extended)
-    other_pilot["target"]["runs"][0]["measured_cycles"] = 40
+    other_target = copy.deepcopy(target)
+    other_target["runs"][0]["measured_cycles"] = 40
+    other_pilot = extended.with_(target=other_target)
     assert stale_records({"a": other_pilot}, fidelity, 0.05) == ["a: measured_cycles 40 (configured 10)"]

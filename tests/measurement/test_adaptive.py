@@ -18,6 +18,7 @@ from pidpipe.measurement.adaptive import (
     measure_to_target,
 )
 from pidpipe.measurement.allocation import Limits
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.cells import summarise_cells
 from pidpipe.measurement.cost_model import CostModel
 
@@ -54,12 +55,13 @@ class SyntheticEngine:
         summary = summarise_cells([s[TRANSIENT:] for s in series], F_HZ, G, 441, 2)
         for cell, s, packing in zip(summary["cells"], series, packings):
             cell.update(seed=packing.seed, n_spheres=11, pile_height_m=0.01, dissipated_j=s.tolist())
-        return {**summary, "status": "ok", "flags": [], "n_spheres": 11,
-                "cycles": {"dissipated_j": np.sum(series, axis=0).tolist()},
-                "fidelity": {"transient_cycles": TRANSIENT, "measured_cycles": cycles,
-                             "sem_block_cycles": 2, "seed": packings[0].seed},
-                "engine": {"cpu_time_s": MODEL.run_cpu_s(len(packings), 11, steps)},
-                "wall_time_s": 0.0}
+        return CaseRecord(**summary, solver="synthetic", case_id="f500Hz_G5_r50pct_rep0",
+                          freq_hz=F_HZ, accel_g=G, fill_pct=50.0, status="ok", flags=[], n_spheres=11,
+                          cycles={"dissipated_j": np.sum(series, axis=0).tolist()},
+                          fidelity={"transient_cycles": TRANSIENT, "measured_cycles": cycles,
+                                    "sem_block_cycles": 2, "seed": packings[0].seed},
+                          engine={"cpu_time_s": MODEL.run_cpu_s(len(packings), 11, steps)},
+                          wall_time_s=0.0)
 
 
 class ContinuingEngine(SyntheticEngine):
@@ -110,43 +112,43 @@ LIMITS = Limits(max_cells=96, max_cycles=2000, max_cpu_s=1e4, cells_per_run=24)
 def test_packing_spread_is_met_with_more_cells():
     engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
     record = measure(engine, 0.05, LIMITS)
-    target = record["target"]
-    assert target["reached"] and record["ceq_cell_sem_ns_m"] <= 0.05 * record["ceq_cell_ns_m"]
+    target = record.target
+    assert target["reached"] and record.ceq_cell_sem_ns_m <= 0.05 * record.ceq_cell_ns_m
     assert {step["kind"] for step in target["steps"]} == {"more_cells"}
     assert all(cycles == 40 for _, _, cycles in engine.calls)
     # every run is listed, all used, and together they hold every cell of the estimate
     assert [entry["run"] for entry in target["runs"]] == [call[0] for call in engine.calls]
     assert all(entry["used"] for entry in target["runs"])
     seeds = [seed for entry in target["runs"] for seed in entry["seeds"]]
-    assert seeds == record["fidelity"]["seeds"] and len(set(seeds)) == target["cells"] > 7
+    assert seeds == record.fidelity["seeds"] and len(set(seeds)) == target["cells"] > 7
     assert target["cpu_time_s"] == pytest.approx(sum(e["cpu_time_s"] for e in target["runs"]))
-    assert TARGET_NOT_REACHED not in record["flags"] and record["status"] == "ok"
+    assert TARGET_NOT_REACHED not in record.flags and record.status == "ok"
 
 
 def test_cycle_noise_is_met_with_more_cycles_on_the_same_cells():
     engine = SyntheticEngine(packing_std=0.0, cycle_noise=1.5)
     record = measure(engine, 0.05, LIMITS, pour_s=50.0)     # new packings dear: rerun longer
-    target = record["target"]
+    target = record.target
     assert target["reached"] and target["cells"] == 7 and target["measured_cycles"] > 40
     assert target["steps"][0]["kind"] == "more_cycles"
     # the longer run replaces the pilot (same run index, same seeds): only the last is used
     assert [entry["used"] for entry in target["runs"]] == [False] * (len(target["runs"]) - 1) + [True]
     assert len({tuple(entry["seeds"]) for entry in target["runs"]}) == 1
-    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record["cells"])
+    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record.cells)
 
 
 def test_the_caps_stop_it_and_it_keeps_the_sem_it_got():
     engine = SyntheticEngine(packing_std=0.6, cycle_noise=0.05)
     record = measure(engine, 0.02, Limits(max_cells=14, max_cycles=400, max_cpu_s=1e4, cells_per_run=24))
-    target = record["target"]
-    assert not target["reached"] and TARGET_NOT_REACHED in record["flags"]
+    target = record.target
+    assert not target["reached"] and TARGET_NOT_REACHED in record.flags
     assert target["cells"] == 14
-    assert record["ceq_cell_sem_ns_m"] > 0.02 * record["ceq_cell_ns_m"]
+    assert record.ceq_cell_sem_ns_m > 0.02 * record.ceq_cell_ns_m
     # a CPU cap: the planned CPU of the runs stays within it
     engine = SyntheticEngine(packing_std=0.6, cycle_noise=0.05)
     record = measure(engine, 0.02, Limits(max_cells=96, max_cycles=400, max_cpu_s=20.0, cells_per_run=24))
-    assert record["target"]["planned_cpu_s"] <= 20.0 and TARGET_NOT_REACHED in record["flags"]
-    assert len(record["target"]["steps"]) <= MAX_STEPS
+    assert record.target["planned_cpu_s"] <= 20.0 and TARGET_NOT_REACHED in record.flags
+    assert len(record.target["steps"]) <= MAX_STEPS
 
 
 def test_a_ceq_not_resolved_from_zero_is_not_chased():
@@ -157,7 +159,7 @@ def test_a_ceq_not_resolved_from_zero_is_not_chased():
 
     def zero_mean(packings, cycles, index):          # mean zero, noise 1e-8 J per cycle
         record = rng_free.shake(packings, cycles, index)
-        for cell in record["cells"]:
+        for cell in record.cells:
             noise = np.random.default_rng(cell["seed"]).standard_normal(len(cell["dissipated_j"]))
             cell["dissipated_j"] = (1e-8 * noise).tolist()
         return record
@@ -165,9 +167,9 @@ def test_a_ceq_not_resolved_from_zero_is_not_chased():
     pilot = [FakePacking(j) for j in range(7)]
     record = measure_to_target(pilot, 40, 0.05, LIMITS, zero_mean, packings_from(0), costs(5.0),
                                lambda records: combine_runs(records, F_HZ, G, 441))
-    assert len(record["target"]["runs"]) == 1 and record["target"]["steps"] == []
-    assert record["target"]["not_chased"] == "C_eq is not resolved from zero"
-    assert "not_resolved" in record["flags"] or "negative_dissipation" in record["flags"]
+    assert len(record.target["runs"]) == 1 and record.target["steps"] == []
+    assert record.target["not_chased"] == "C_eq is not resolved from zero"
+    assert "not_resolved" in record.flags or "negative_dissipation" in record.flags
 
 
 @pytest.mark.parametrize("flag", ["not_steady", "not_stationary"])
@@ -176,18 +178,18 @@ def test_a_pilot_that_fails_a_steady_state_check_is_not_chased(flag):
 
     def unsteady(packings, cycles, index):
         record = engine.shake(packings, cycles, index)
-        return {**record, "status": "flagged", "flags": [flag]}
+        return record.with_(status="flagged", flags=[flag])
 
     pilot = [FakePacking(100 + j) for j in range(7)]
     record = measure_to_target(pilot, 40, 0.05, LIMITS, unsteady, packings_from(100), costs(5.0),
                                lambda records: combine_runs(records, F_HZ, G, 441))
-    target = record["target"]
+    target = record.target
     assert len(engine.calls) == 1 and len(target["runs"]) == 1 and target["steps"] == []
     assert target["not_chased"] == f"the pilot is flagged {flag}"
-    assert not target["reached"] and flag in record["flags"] and record["status"] == "flagged"
+    assert not target["reached"] and flag in record.flags and record.status == "flagged"
     # the same engine without the flag does chase it
     chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, LIMITS)
-    assert len(chased["target"]["runs"]) > 1 and chased["target"]["not_chased"] is None
+    assert len(chased.target["runs"]) > 1 and chased.target["not_chased"] is None
 
 
 def test_a_case_whose_later_run_fails_a_steady_state_check_is_chased_no_further():
@@ -195,34 +197,34 @@ def test_a_case_whose_later_run_fails_a_steady_state_check_is_chased_no_further(
 
     def unsteady_after_pilot(packings, cycles, index):
         record = engine.shake(packings, cycles, index)
-        return record if index == 0 else {**record, "status": "flagged", "flags": ["not_steady"]}
+        return record if index == 0 else record.with_(status="flagged", flags=["not_steady"])
 
     limits = dataclasses.replace(LIMITS, cells_per_run=7)       # the first step: several runs
     pilot = [FakePacking(100 + j) for j in range(7)]
     record = measure_to_target(pilot, 40, 0.05, limits, unsteady_after_pilot, packings_from(100),
                                costs(5.0), lambda records: combine_runs(records, F_HZ, G, 441))
-    target = record["target"]
+    target = record.target
     assert len(target["steps"]) == 1                             # no step after the flagged one
     assert target["not_chased"].startswith("flagged not_steady after step 1 (")
     assert target["cells"] == 7 + target["steps"][0]["new_cells"]
-    assert not target["reached"] and record["status"] == "flagged"
-    assert TARGET_NOT_REACHED in record["flags"] and "not_steady" in record["flags"]
+    assert not target["reached"] and record.status == "flagged"
+    assert TARGET_NOT_REACHED in record.flags and "not_steady" in record.flags
     # unflagged, the same engine takes more than one step to its target
     chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, limits)
-    assert chased["target"]["reached"] and chased["target"]["not_chased"] is None
-    assert len(chased["target"]["steps"]) > 1
+    assert chased.target["reached"] and chased.target["not_chased"] is None
+    assert len(chased.target["steps"]) > 1
     # flagged at the step that reaches the target: reached, so nothing was left unchased
     flagged_late = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
-    last = len(chased["target"]["runs"]) - 1
+    last = len(chased.target["runs"]) - 1
 
     def unsteady_at_the_end(packings, cycles, index):
         record = flagged_late.shake(packings, cycles, index)
-        return record if index < last else {**record, "status": "flagged", "flags": ["not_steady"]}
+        return record if index < last else record.with_(status="flagged", flags=["not_steady"])
 
     record = measure_to_target(pilot, 40, 0.05, limits, unsteady_at_the_end, packings_from(100),
                                costs(5.0), lambda records: combine_runs(records, F_HZ, G, 441))
-    assert record["target"]["reached"] and record["target"]["not_chased"] is None
-    assert "not_steady" in record["flags"] and len(record["target"]["runs"]) == last + 1
+    assert record.target["reached"] and record.target["not_chased"] is None
+    assert "not_steady" in record.flags and len(record.target["runs"]) == last + 1
 
 
 class LongTransientEngine(SyntheticEngine):
@@ -236,13 +238,12 @@ class LongTransientEngine(SyntheticEngine):
 
     def _record(self, packings, cycles, index, steps):
         record = super()._record(packings, cycles, index, steps)
-        series = [np.asarray(cell["dissipated_j"]) for cell in record["cells"]]
+        series = [np.asarray(cell["dissipated_j"]) for cell in record.cells]
         kept = TRANSIENT + self.lost
         summary = summarise_cells([s[kept:] for s in series], F_HZ, G, 441, 2)
         for cell, s, packing in zip(summary["cells"], series, packings):
             cell.update(seed=packing.seed, n_spheres=11, pile_height_m=0.01, dissipated_j=s.tolist())
-        return {**record, **summary,
-                "fidelity": {**record["fidelity"], "transient_cycles": kept}}
+        return record.with_(**summary, fidelity={**record.fidelity, "transient_cycles": kept})
 
 
 def test_cycles_lost_to_a_longer_transient_are_planned_for():
@@ -253,39 +254,39 @@ def test_cycles_lost_to_a_longer_transient_are_planned_for():
     limits = dataclasses.replace(LIMITS, max_cells=7)
     engine = LongTransientEngine(packing_std=0.0, cycle_noise=1.5, lost=40)
     record = measure(engine, 0.05, limits, pilot_cycles=80)
-    target = record["target"]
-    assert target["reached"] and record["ceq_cell_sem_ns_m"] <= 0.05 * record["ceq_cell_ns_m"]
-    assert TARGET_NOT_REACHED not in record["flags"] and target["not_chased"] is None
-    assert all(cell["n_cycles"] == target["measured_cycles"] - 40 for cell in record["cells"])
+    target = record.target
+    assert target["reached"] and record.ceq_cell_sem_ns_m <= 0.05 * record.ceq_cell_ns_m
+    assert TARGET_NOT_REACHED not in record.flags and target["not_chased"] is None
+    assert all(cell["n_cycles"] == target["measured_cycles"] - 40 for cell in record.cells)
     # the components the plan starts from give the pilot's reported SEM, not the smaller one
     # of 80 kept cycles
     pilot = engine.shake([FakePacking(100 + j) for j in range(7)], 80, 0)
     combined = combine_runs([pilot], F_HZ, G, 441)
     components = components_of(combined, 80)
     assert components.lost_cycles == pytest.approx(40)
-    assert components.sem(7, 80) == pytest.approx(combined["ceq_cell_sem_ns_m"], rel=1e-12)
-    assert components_of(combined).sem(7, 80) < 0.8 * combined["ceq_cell_sem_ns_m"]
+    assert components.sem(7, 80) == pytest.approx(combined.ceq_cell_sem_ns_m, rel=1e-12)
+    assert components_of(combined).sem(7, 80) < 0.8 * combined.ceq_cell_sem_ns_m
 
 
 def test_without_a_target_the_pilot_is_the_case():
     engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
     record = measure(engine, None, LIMITS)
-    assert len(engine.calls) == 1 and "target" not in record
+    assert len(engine.calls) == 1 and record.target is None
 
 
 def test_more_cells_than_a_run_holds_go_in_several_runs():
     engine = SyntheticEngine(packing_std=0.4, cycle_noise=0.05)
     record = measure(engine, 0.04, Limits(max_cells=96, max_cycles=400, max_cpu_s=1e4, cells_per_run=10))
     assert all(len(seeds) <= 10 for _, seeds, _ in engine.calls)
-    assert record["target"]["cells"] == len(record["cells"]) > 10
-    assert math.isfinite(record["ceq_cell_sem_ns_m"])
+    assert record.target["cells"] == len(record.cells) > 10
+    assert math.isfinite(record.ceq_cell_sem_ns_m)
 
 
 def test_more_cycles_continue_the_runs_of_an_engine_that_can_and_cost_only_the_cycles_added():
     replayed = measure(SyntheticEngine(packing_std=0.0, cycle_noise=1.5), 0.05, LIMITS, pour_s=50.0)
     engine = ContinuingEngine(packing_std=0.0, cycle_noise=1.5)
     record = measure(engine, 0.05, LIMITS, pour_s=50.0)
-    target = record["target"]
+    target = record.target
     assert target["reached"] and target["cells"] == 7 and target["steps"][0]["kind"] == "more_cycles"
     # one run from the pour, then only continuations of it
     assert [call[0] for call in engine.calls] == [0] + ["extend"] * (len(engine.calls) - 1)
@@ -301,9 +302,9 @@ def test_more_cycles_continue_the_runs_of_an_engine_that_can_and_cost_only_the_c
     assert target["planned_cpu_s"] == pytest.approx(sum(entry["planned_cpu_s"] for entry in runs))
     # the same plan as the replaying engine's, at less CPU: the pilot's transient and cycles
     # are not paid again
-    assert [s["cycles"] for s in target["steps"]] == [s["cycles"] for s in replayed["target"]["steps"]]
-    assert record["ceq_cell_ns_m"] == replayed["ceq_cell_ns_m"]
-    saved = target["planned_cpu_s"] - replayed["target"]["planned_cpu_s"]
+    assert [s["cycles"] for s in target["steps"]] == [s["cycles"] for s in replayed.target["steps"]]
+    assert record.ceq_cell_ns_m == replayed.ceq_cell_ns_m
+    saved = target["planned_cpu_s"] - replayed.target["planned_cpu_s"]
     assert saved == pytest.approx(-len(runs[1:]) * (MODEL.run_cpu_s(7, 11, 1000 * TRANSIENT) - MODEL.overhead_s)
                                   - sum(MODEL.run_cpu_s(7, 11, 1000 * entry["from_measured_cycles"])
                                         - MODEL.overhead_s for entry in runs[1:]))
@@ -312,7 +313,7 @@ def test_more_cycles_continue_the_runs_of_an_engine_that_can_and_cost_only_the_c
 def test_both_continues_the_old_runs_and_shakes_the_new_cells_in_new_runs():
     engine = ContinuingEngine(packing_std=0.3, cycle_noise=1.0)
     record = measure(engine, 0.05, LIMITS, pour_s=0.5)
-    target = record["target"]
+    target = record.target
     both = target["steps"][0]
     assert both["kind"] == "both" and both["continued_cells"] == 7
     assert both["run_cells"] == both["new_cells"] > 0
@@ -328,8 +329,8 @@ def test_both_continues_the_old_runs_and_shakes_the_new_cells_in_new_runs():
     assert all(entry["used"] for entry in target["runs"])
     # every cell of the estimate is listed once in the runs from the pour
     seeds = [seed for entry in target["runs"] if not entry["continued"] for seed in entry["seeds"]]
-    assert sorted(seeds) == sorted(record["fidelity"]["seeds"]) and len(set(seeds)) == target["cells"]
-    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record["cells"])
+    assert sorted(seeds) == sorted(record.fidelity["seeds"]) and len(set(seeds)) == target["cells"]
+    assert all(cell["n_cycles"] == target["measured_cycles"] for cell in record.cells)
 
 
 def test_a_new_packing_is_priced_at_the_pour_engines_cost(monkeypatch, tmp_path):
@@ -350,7 +351,9 @@ def test_a_new_packing_is_priced_at_the_pour_engines_cost(monkeypatch, tmp_path)
                                run=lambda *args: {}, new_packings=packings_from(10),
                                cost_model=shake_model, pour_model=given, steps_per_cycle=1000,
                                transient_cycles=TRANSIENT)
-    priced = [costs({"n_spheres": 11}) for costs in handed]
+    pilot = CaseRecord(solver="synthetic", case_id="f500Hz_G5_r50pct_rep0", freq_hz=F_HZ,
+                       accel_g=G, fill_pct=50.0, status="ok", n_spheres=11)
+    priced = [costs(pilot) for costs in handed]
     assert priced[0][1] == pytest.approx(0.3 + 0.02 * 11)
     assert priced[1][1] == pytest.approx(5.0 + 0.1 * 11)
     assert priced[0][0](7, 40) == priced[1][0](7, 40) == shake_model.run_cpu_s(7, 11, 1000 * (TRANSIENT + 40))

@@ -34,6 +34,7 @@ from pidpipe.design.ceq_table import (
 from pidpipe.design.optimisation_files import read_results_json
 from pidpipe.design.records import TABLE_COLUMNS, combine_replicates, records_to_table
 from pidpipe.errors import ConfigError, PackingError, ParseError, TableError
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.steps.cases import failed_record, simulate_case
 from pidpipe.steps.figures import plot_optimisation_convergence
 from pidpipe.steps.packings import check_packings
@@ -50,22 +51,22 @@ def config() -> dict:
 
 
 def record(freq=500.0, accel=5.0, fill=50.0, replicate=0, status="ok", ceq=10.0, sem=1.0,
-           flags=()) -> dict:
-    """A case record as pidpipe.liggghts.shake.run_case writes it (only the fields the table reads)."""
+           flags=()) -> CaseRecord:
+    """A case record as pidpipe.liggghts.shake.run_case makes it (only the fields the table reads)."""
     case = CaseSpec(freq, accel, fill, replicate)
-    return {
-        "case_id": case.case_id, "freq_hz": freq, "accel_g": accel, "fill_pct": fill,
-        "replicate": replicate, "n_spheres": 11, "status": status, "flags": list(flags),
-        "ceq_coupon_ns_m": ceq, "ceq_coupon_sem_ns_m": sem,
-        "ceq_cell_ns_m": ceq / 441, "ceq_cell_sem_ns_m": sem / 441,
-        "ed_cycle_mean_j": ceq * 1e-9, "ed_cycle_sem_j": sem * 1e-9, "n_cycles": 10,
-        "fidelity": {"timestep_s": 9e-7, "rayleigh_fraction": 0.2, "steps_per_cycle": 2223,
-                     "youngs_modulus_scale": 1.0, "transient_cycles": 30, "measured_cycles": 10,
-                     "sem_block_cycles": 2, "rotation": True, "friction": True,
-                     "seed": 20261123 + replicate},
-        "engine": {"liggghts_version": "LIGGGHTS-PUBLIC 3.8.0", "liggghts_wall_time_s": 1.5},
-        "wall_time_s": 2.0,
-    }
+    return CaseRecord(
+        solver="liggghts", case_id=case.case_id, freq_hz=freq, accel_g=accel, fill_pct=fill,
+        replicate=replicate, n_spheres=11, status=status, flags=list(flags),
+        ceq_coupon_ns_m=ceq, ceq_coupon_sem_ns_m=sem,
+        ceq_cell_ns_m=ceq / 441, ceq_cell_sem_ns_m=sem / 441,
+        ed_cycle_mean_j=ceq * 1e-9, ed_cycle_sem_j=sem * 1e-9, n_cycles=10,
+        fidelity={"timestep_s": 9e-7, "rayleigh_fraction": 0.2, "steps_per_cycle": 2223,
+                  "youngs_modulus_scale": 1.0, "transient_cycles": 30, "measured_cycles": 10,
+                  "sem_block_cycles": 2, "rotation": True, "friction": True,
+                  "seed": 20261123 + replicate},
+        engine={"liggghts_version": "LIGGGHTS-PUBLIC 3.8.0", "liggghts_wall_time_s": 1.5},
+        wall_time_s=2.0,
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -177,9 +178,9 @@ def test_flagged_without_ok_replicate_keeps_values_for_inspection():
 def test_collect_table_writes_a_valid_table_and_marks_missing_records(tmp_path):
     paths = []
     for rec in (record(500.0, 5.0, 25.0), record(500.0, 5.0, 50.0, status="failed", ceq=float("nan"))):
-        path = tmp_path / "cases" / f"{rec['case_id']}.json"
+        path = tmp_path / "cases" / f"{rec.case_id}.json"
         path.parent.mkdir(exist_ok=True)
-        path.write_text(json.dumps(rec))
+        path.write_text(rec.to_json())
         paths.append(str(path))
     paths.append(str(tmp_path / "cases" / "f1000Hz_G5_r25pct_rep0.json"))  # never written
     out = tmp_path / "ceq_table.csv"
@@ -229,7 +230,7 @@ def test_engine_failure_writes_a_failed_record_naming_case_and_logs(config, tmp_
     rec = simulate_case(case_config, "f500Hz_G5_r50pct_rep0", [str(packing_path)],
                                  str(record_path), str(tmp_path / "work"), str(log))
     written = json.loads(record_path.read_text())
-    assert written["status"] == rec["status"] == "failed"
+    assert written["status"] == rec.status == "failed"
     assert "f500Hz_G5_r50pct_rep0" in written["message"]
     assert str(tmp_path / "work" / "screen.txt") in written["message"]
     assert str(log) in written["message"]

@@ -16,6 +16,7 @@ from pidpipe.dem.case import run_dem_case
 from pidpipe.errors import PidpipeError
 from pidpipe.liggghts.pour import pour
 from pidpipe.measurement.adaptive import cell_series
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.steps.validate import check_case_with_dem
 from tests.conftest import short_config
 
@@ -39,16 +40,17 @@ def campaign(tmp_path_factory):
     extra = pour(settings, 25, POOL_INDEX, folder / "pour_extra")
     save_packing(extra, pool / f"r25pct_rep{POOL_INDEX}.json")
     seeds = [p.seed for p in pilot]
-    record = {"solver": "liggghts", "case_id": CASE.case_id, "status": "ok", "fidelity": {"seeds": seeds + [extra.seed]},
-              "ceq_cell_ns_m": 0.05, "ceq_cell_sem_ns_m": 0.002,
-              "target": {"runs": [
-                  {"run": 0, "kind": "pilot", "seeds": seeds, "measured_cycles": 6, "used": False},
-                  {"run": 1, "kind": "more_cells", "seeds": [extra.seed], "measured_cycles": 8,
-                   "used": True},
-                  {"run": 2, "kind": "more_cycles", "seeds": seeds, "measured_cycles": 8,
-                   "used": True}]}}
-    record_path = folder / "case.json"
-    record_path.write_text(json.dumps(record))
+    record = CaseRecord(solver="liggghts", case_id=CASE.case_id, freq_hz=CASE.freq_hz,
+                        accel_g=CASE.accel_g, fill_pct=CASE.fill_pct, replicate=CASE.replicate,
+                        status="ok", fidelity={"seeds": seeds + [extra.seed]},
+                        ceq_cell_ns_m=0.05, ceq_cell_sem_ns_m=0.002,
+                        target={"runs": [
+                            {"run": 0, "kind": "pilot", "seeds": seeds, "measured_cycles": 6, "used": False},
+                            {"run": 1, "kind": "more_cells", "seeds": [extra.seed], "measured_cycles": 8,
+                             "used": True},
+                            {"run": 2, "kind": "more_cycles", "seeds": seeds, "measured_cycles": 8,
+                             "used": True}]})
+    record_path = record.write(folder / "case.json")
     return {"config": config, "pilot": pilot, "pilot_paths": [str(p) for p in pilot_paths],
             "extra": extra, "pool": str(pool), "record": str(record_path), "folder": folder}
 
@@ -57,18 +59,18 @@ def test_the_used_runs_are_replayed_cell_for_cell(campaign):
     out = campaign["folder"] / "dem.json"
     record = check_case_with_dem(stage_config(campaign["config"], "case"), campaign["record"],
                                  campaign["pilot_paths"], str(out), campaign["pool"])
-    replay = record["target"]["replay_of"]
+    replay = record.target["replay_of"]
     assert [entry["run"] for entry in replay] == [1, 2]          # the unused pilot is not replayed
     assert [entry["measured_cycles"] for entry in replay] == [8, 8]
-    assert record["target"]["cells"] == 3
-    assert sorted(record["fidelity"]["seeds"]) == sorted(
+    assert record.target["cells"] == 3
+    assert sorted(record.fidelity["seeds"]) == sorted(
         [p.seed for p in campaign["pilot"]] + [campaign["extra"].seed])
-    assert json.loads(out.read_text())["ceq_cell_ns_m"] == pytest.approx(record["ceq_cell_ns_m"])
+    assert json.loads(out.read_text())["ceq_cell_ns_m"] == pytest.approx(record.ceq_cell_ns_m)
     # the DEM is deterministic: a replayed cell is the cell of its run made on its own
     settings = ShakeSettings.from_config(campaign["config"])
     staged = replace(settings, sampling=replace(settings.sampling, measured_cycles=8))
     alone = cell_series(run_dem_case(staged, CASE, [campaign["extra"]]))[0]
-    cell = next(c for c in record["cells"] if c["seed"] == campaign["extra"].seed)
+    cell = next(c for c in record.cells if c["seed"] == campaign["extra"].seed)
     np.testing.assert_allclose(cell["dissipated_j"], alone["dissipated_all_j"], rtol=1e-12)
 
 

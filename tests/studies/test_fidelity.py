@@ -17,9 +17,11 @@ import pandas as pd
 import pytest
 import yaml
 
+from pidpipe.cases import CaseSpec
 from pidpipe.config import DEFAULT_CONFIG_PATH, load_config, validate_config
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.errors import ConfigError
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.studies.fidelity import (
     REFERENCE,
     SUMMARY_COLUMNS,
@@ -147,14 +149,18 @@ def test_median_with_sem_takes_the_middle_cases():
     assert all(math.isnan(v) for v in median_with_sem([], []))
 
 
-def record(case_id: str, ceq: float, sem: float, cpu: float, flags=(), status=None) -> dict:
-    return {"case_id": case_id, "status": status or ("flagged" if flags else "ok"),
-            "flags": list(flags), "n_spheres": 5, "ceq_cell_ns_m": ceq, "ceq_cell_sem_ns_m": sem,
-            "energy_drift_fraction": 0.01, "wall_time_s": cpu * 1.1,
-            "fidelity": {"timestep_s": 9e-7, "rayleigh_fraction": 0.2, "youngs_modulus_scale": 1.0,
-                         "transient_cycles": 5, "measured_cycles": 40, "rotation": True,
-                         "friction": True},
-            "engine": {"liggghts_cpu_time_s": cpu, "steps": 1000}}
+def record(case_id: str, ceq: float, sem: float, cpu: float, flags=(), status=None) -> CaseRecord:
+    case = CaseSpec.from_id(case_id)
+    return CaseRecord(
+        solver="liggghts", case_id=case_id, freq_hz=case.freq_hz, accel_g=case.accel_g,
+        fill_pct=case.fill_pct, replicate=case.replicate,
+        status=status or ("flagged" if flags else "ok"),
+        flags=list(flags), n_spheres=5, ceq_cell_ns_m=ceq, ceq_cell_sem_ns_m=sem,
+        energy_drift_fraction=0.01, wall_time_s=cpu * 1.1,
+        fidelity={"timestep_s": 9e-7, "rayleigh_fraction": 0.2, "youngs_modulus_scale": 1.0,
+                  "transient_cycles": 5, "measured_cycles": 40, "rotation": True,
+                  "friction": True},
+        engine={"liggghts_cpu_time_s": cpu, "steps": 1000})
 
 
 CASES = ("f50Hz_G1_r25pct_rep0", "f50Hz_G10_r25pct_rep0", "f500Hz_G5_r25pct_rep0",
@@ -221,14 +227,13 @@ def test_summary_leaves_flagged_cases_out_and_names_them():
 
 def test_collect_writes_table_summary_and_a_missing_row(tmp_path):
     from pidpipe.figures.fidelity import plot_fidelity
-    from pidpipe.liggghts.shake import write_record
 
     records = made_up_records()
     jobs, paths = [], []
     for (variant, case_id), rec in records.items():
         path = tmp_path / "cases" / variant / f"{case_id}.json"
         if (variant, case_id) != ("cheap", CASES[2]):  # one record is missing
-            write_record(rec, path)
+            rec.write(path)
         jobs.append([variant, case_id])
         paths.append(str(path))
     summary = collect_fidelity_study(paths, jobs, VARIANTS, "default", 0.05,

@@ -8,16 +8,17 @@ import numpy as np
 import pytest
 
 from pidpipe.figures.parity import plot_parity
+from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.studies.grid_check import GRID_COLUMNS, grid_row, grid_summary, grid_table
 
 
 def _record(solver, value, sem, status="ok", flags=(), case_id="f500Hz_G5_r50pct_rep0",
             cpu=1.0):
-    return {"solver": solver, "case_id": case_id, "freq_hz": 500.0, "accel_g": 5.0,
-            "fill_pct": 50.0, "n_spheres": 11, "regime": "impacting", "status": status,
-            "flags": list(flags), "ceq_cell_ns_m": value, "ceq_cell_sem_ns_m": sem,
-            "fidelity": {"cells_per_run": 7, "measured_cycles": 40, "transient_cycles": 15},
-            "engine": {"cpu_time_s": cpu}}
+    return CaseRecord(solver=solver, case_id=case_id, freq_hz=500.0, accel_g=5.0,
+                      fill_pct=50.0, n_spheres=11, regime="impacting", status=status,
+                      flags=list(flags), ceq_cell_ns_m=value, ceq_cell_sem_ns_m=sem,
+                      fidelity={"cells_per_run": 7, "measured_cycles": 40, "transient_cycles": 15},
+                      engine={"cpu_time_s": cpu})
 
 
 def test_z_combined_is_the_difference_over_the_combined_sem():
@@ -30,7 +31,7 @@ def test_z_combined_is_the_difference_over_the_combined_sem():
 
 
 def _with_cells(record, values, seeds):
-    return {**record, "cells": [{"seed": s, "ceq_cell_ns_m": v} for s, v in zip(seeds, values)]}
+    return record.with_(cells=[{"seed": s, "ceq_cell_ns_m": v} for s, v in zip(seeds, values)])
 
 
 def test_the_paired_test_sees_a_systematic_difference_the_packing_spread_hides():

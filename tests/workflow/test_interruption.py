@@ -319,10 +319,10 @@ def test_interrupted_campaign_resumes_with_only_the_unfinished_cases(poured, ref
     records = _records(workdir)
     assert finished <= set(records) <= CASES
     for case_id, path in records.items():
-        record = read_record(path)  # a JSON object with case_id and status, or ParseError
-        assert record["case_id"] == case_id
+        record = read_record(path)  # a CaseRecord (a JSON object with case_id and status), or ParseError
+        assert record.case_id == case_id
         # an interrupted case is never recorded as failed (which would keep it from rerunning)
-        assert record["status"] in ("ok", "flagged"), record.get("message")
+        assert record.status in ("ok", "flagged"), record.message
         assert _record_values(path) == _record_values(reference / "results" / "cases" / path.name)
     unfinished_records = set(records) - finished
     if target == "snakemake" and sig == signal.SIGTERM:
@@ -413,7 +413,7 @@ def test_killed_liggghts_is_retried_once_then_the_case_is_recorded_failed(refere
 
     reference_cases = reference / "results" / "cases"
     retried = read_record(workdir / "results" / "cases" / f"{once}.json")
-    assert retried["engine_attempts"] == 2
+    assert retried.engine_attempts == 2
     attempts = ("engine_attempts",)
     assert (_record_values(workdir / "results" / "cases" / f"{once}.json", ignore=attempts)
             == _record_values(reference_cases / f"{once}.json", ignore=attempts))
@@ -421,12 +421,12 @@ def test_killed_liggghts_is_retried_once_then_the_case_is_recorded_failed(refere
     assert "attempt 1 of 2" in log and "killed by signal SIGKILL" in log
 
     failed = read_record(workdir / "results" / "cases" / f"{always}.json")
-    assert failed["status"] == "failed" and failed["engine_attempts"] == 2
-    assert math.isnan(failed["ceq_coupon_ns_m"])
-    assert failed["n_spheres"] == read_record(reference_cases / f"{always}.json")["n_spheres"]
+    assert failed.status == "failed" and failed.engine_attempts == 2
+    assert math.isnan(failed.ceq_coupon_ns_m)
+    assert failed.n_spheres == read_record(reference_cases / f"{always}.json").n_spheres
     for part in (f"case {always} failed after 2 attempt(s)", "killed by signal SIGKILL",
                  "screen.txt", f"logs/simulate_case/{always}.log"):
-        assert part in failed["message"], failed["message"]
+        assert part in failed.message, failed.message
 
     table = {row["case_id"]: row for row in _table_values(workdir / "results" / "ceq_table.csv")}
     reference_table = {row["case_id"]: row
