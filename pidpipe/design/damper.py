@@ -237,4 +237,5 @@ class Damper:
 
 def acceleration_g(freq_hz, amplitude_m) -> np.ndarray:
     """Gamma = omega^2 |X| / g of a displacement amplitude |X| (m) at f (Hz), in g."""
-    return (2.0 * np.pi * np.asarray(freq_hz, dtype=float)) ** 2 * np.abs(amplitude_m) / STANDARD_GRAVITY_M_S2
+    omega = 2.0 * np.pi * np.asarray(freq_hz, dtype=float)
+    return omega**2 * np.abs(amplitude_m) / STANDARD_GRAVITY_M_S2

@@ -3,6 +3,8 @@ impedance it adds to a structure, its files and the ``pidpipe damper`` command."
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -42,8 +44,8 @@ def test_values_are_per_cell_times_cells_with_their_uncertainties():
     for name in ("ceq_ns_m", "ceq_sd_ns_m", "m_eff_kg", "m_eff_sd_kg"):
         assert getattr(many, name) == pytest.approx(20 * getattr(one, name))
     assert not one.clipped.any() and one.cells == 1.0
-    with pytest.raises(Exception):
-        one.cells = 2                                             # frozen
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        one.cells = 2
 
 
 def test_the_impedance_makes_the_structure_the_one_carrying_the_mass_and_dashpot():
