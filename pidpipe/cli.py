@@ -63,6 +63,23 @@ def _parser() -> argparse.ArgumentParser:
                           help="bootstrap draws (default: optimisation.bootstrap.draws; 0: none)")
     optimise.add_argument("--output", type=Path,
                           help="also write the designs as CSV here (and <stem>.json, the full results)")
+
+    damper = commands.add_parser(
+        "damper", help="print the damper's effective mass and C_eq at one point",
+        description="Read the campaign's C_eq and m_eff surrogates (results/surrogate.json, "
+                    "results/surrogate_m_eff.json) and print the effective mass m_eff and the "
+                    "equivalent dashpot C_eq that --cells filled cells add to a structure, with "
+                    "their standard uncertainties, and the impedance Z = C_eq + i omega m_eff "
+                    "(the cells' force on the structure is -Z times its velocity).")
+    damper.add_argument("--freq-hz", type=float, required=True, help="frequency, Hz")
+    damper.add_argument("--accel-g", type=float, required=True,
+                        help="the cells' acceleration amplitude, g")
+    damper.add_argument("--fill-pct", type=float, required=True, help="fill fraction, percent")
+    damper.add_argument("--cells", type=int, default=1, help="filled cells (default: 1)")
+    damper.add_argument("--results", type=Path, default=Path("results"),
+                        help="folder of the surrogates (default: results)")
+    damper.add_argument("--config", type=Path, default=argparse.SUPPRESS,
+                        help="config file, for geometry.coupon_n_cells (default: config.yaml)")
     return parser
 
 
@@ -249,10 +266,38 @@ def optimise_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def damper_command(args: argparse.Namespace) -> int:
+    """Print m_eff and C_eq of --cells cells at one (f, Gamma, r), with their uncertainties."""
+    import math
+
+    from pidpipe.config import load_config
+    from pidpipe.design.damper import Damper
+
+    if args.cells < 1:
+        raise PidpipeError(f"--cells {args.cells} is not allowed: it must be >= 1")
+    config = load_config(args.config)
+    damper = Damper.from_results(args.results, int(config["geometry"]["coupon_n_cells"]))
+    values = damper.values(args.freq_hz, args.accel_g, args.fill_pct, cells=args.cells)
+    impedance = damper.impedance(args.freq_hz, args.accel_g, args.fill_pct, cells=args.cells)[0]
+
+    def pm(value: float, sd: float, unit: str) -> str:
+        return (f"{value:.4g} +- {sd:.2g} {unit}" if math.isfinite(sd)
+                else f"{value:.4g} {unit} (the surrogate gives no uncertainty)")
+
+    print(f"damper of {args.cells} cell(s) at f = {args.freq_hz:g} Hz, Gamma = {args.accel_g:g} g, "
+          f"r = {args.fill_pct:g} %")
+    print(f"  m_eff           = {pm(values.m_eff_kg[0], values.m_eff_sd_kg[0], 'kg')}")
+    print(f"  C_eq            = {pm(values.ceq_ns_m[0], values.ceq_sd_ns_m[0], 'N s/m')}")
+    print(f"  impedance Z     = {impedance.real:.4g} {impedance.imag:+.4g}i N s/m "
+          "(force on the structure -Z V, V its velocity)")
+    print(f"  surrogates      : {damper.describe()}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     handlers = {"case": run_case_command, "check-config": check_config_command,
-                "optimise": optimise_command}
+                "optimise": optimise_command, "damper": damper_command}
     try:
         return handlers[args.command](args)
     except PidpipeError as exc:

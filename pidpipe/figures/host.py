@@ -2,9 +2,10 @@
 
 One column per force level. Top row: the host's displacement amplitude |X| (um) for the coupled
 host (markers, error bars one standard error over the measured cycles; hollow where the point
-was not steady) and the two dashpot models (lines, shaded one standard deviation over the
-redrawn surrogates; crosses where the host's Gamma lay outside the surrogate's G range and C_eq
-was read at its edge). Bottom row:
+was not steady), the two dashpot models and, when there is an m_eff surrogate, the damper model
+(c) with the spheres' effective mass (lines, shaded one standard deviation over the redrawn
+surrogates; crosses where the host's Gamma lay outside the surrogate's G range and C_eq was read
+at its edge). Bottom row:
 the loss factor eta (energy dissipated per cycle over 2 pi x the peak strain energy) of each.
 """
 
@@ -18,7 +19,8 @@ from pidpipe.figures.common import RC_PARAMS
 
 _STYLE = {"coupled": ("C3", "coupled DEM (a)"),
           "equivalent": ("C0", "dashpot C_eq, mass m_h + m_p (b)"),
-          "equivalent_bare_mass": ("C2", "dashpot C_eq, mass m_h (b')")}
+          "equivalent_bare_mass": ("C2", "dashpot C_eq, mass m_h (b')"),
+          "equivalent_mass": ("C1", "damper: C_eq and m_eff(f, Γ), mass m_h + n_c m_eff (c)")}
 
 
 def plot_host(curves: pd.DataFrame) -> Figure:

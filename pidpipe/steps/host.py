@@ -1,6 +1,7 @@
 """The host-coupled check's steps (``snakemake --cores 2 host``): the check itself and its figure.
 
-:func:`check_host` reads the design and the surrogate, pours the k representative packings at
+:func:`check_host` reads the design and the surrogates (C_eq, and m_eff for model (c) when
+``surrogate_m_eff.json`` lies next to ``surrogate.json``), pours the k representative packings at
 the design's fill (LIGGGHTS, as the campaign pours; kept in ``folder`` and reused), runs
 :func:`pidpipe.loop.host.host_check` and writes the curves, the summary and the run's
 parameters; :func:`plot_host_figure` draws the curves.
@@ -101,8 +102,34 @@ def prepare_host(config: dict, surrogate_path: str, designs_path: str, folder: s
     return settings, load, surrogate, draws, np.stack([p.centres() for p in packings]), extra
 
 
+def load_m_eff_surrogate(surrogate_path: str, m_eff_path: str | None = None, loader=None):
+    """The m_eff surrogate for model (c), or None (the reason logged) when there is none.
+
+    Parameters
+    ----------
+    surrogate_path : path
+        The C_eq surrogate (``results/surrogate.json``).
+    m_eff_path : path, optional
+        The m_eff surrogate; default :data:`pidpipe.design.damper.M_EFF_FILE` next to
+        ``surrogate_path``.
+    loader : callable, optional
+        ``loader(path) -> surrogate``; default :func:`pidpipe.design.surrogate.load_surrogate`.
+    """
+    from pidpipe.design.damper import M_EFF_FILE
+
+    path = Path(m_eff_path) if m_eff_path else Path(surrogate_path).with_name(M_EFF_FILE)
+    if not path.is_file():
+        logger.warning("host: no m_eff surrogate (%s): model (c), the host with the spheres' "
+                       "effective mass, is left out", path)
+        return None
+    if loader is None:
+        from pidpipe.design.surrogate import load_surrogate as loader
+    return loader(path)
+
+
 def check_host(config: dict, surrogate_path: str, designs_path: str, curves_path: str,
-               summary_path: str, meta_path: str, folder: str, workers: int = 1) -> None:
+               summary_path: str, meta_path: str, folder: str, workers: int = 1,
+               m_eff_surrogate_path: str | None = None) -> None:
     """Run the host-coupled check of one design and write its tables.
 
     Parameters
@@ -117,14 +144,17 @@ def check_host(config: dict, surrogate_path: str, designs_path: str, curves_path
         Where the host's packings are poured and kept.
     workers : int
         LIGGGHTS pours and coupled runs at a time.
+    m_eff_surrogate_path : path, optional
+        The m_eff surrogate for model (c) (:func:`load_m_eff_surrogate`; absent: (c) left out).
     """
     from pidpipe.cell.scene import CellScene
     from pidpipe.loop.host import host_check
 
     settings, load, surrogate, draws, packings, extra = prepare_host(
         config, surrogate_path, designs_path, folder, workers)
+    m_eff = load_m_eff_surrogate(surrogate_path, m_eff_surrogate_path)
     curves, summary, meta = host_check(settings, CellScene.from_config(config), load, surrogate,
-                                       draws, packings, workers)
+                                       draws, packings, workers, m_eff_surrogate=m_eff)
     meta.update(extra, fidelity=dict(config["fidelity"]), engine=_engine())
     for line in summary_lines(summary):
         logger.info("host: %s", line)
@@ -142,7 +172,7 @@ def _engine() -> dict:
 
 
 def summary_lines(summary: pd.DataFrame) -> list[str]:
-    """One line per force level and model: the peak, and for the dashpot models the verdict."""
+    """One line per force level and model: the peak, and for the surrogate models the verdict."""
     lines = []
     for row in summary.itertuples():
         text = (f"F0 {row.force_n:g} N {row.model}: peak {row.peak_amplitude_m * 1e6:.4g} "
@@ -154,6 +184,9 @@ def summary_lines(summary: pd.DataFrame) -> list[str]:
                      f"+- {row.amplitude_rel_diff_sd:.1%}, peak {row.peak_shift_hz:+.3g} "
                      f"+- {row.peak_shift_sd_hz:.2g} Hz, loss factor {row.loss_factor_rel_diff:+.1%} "
                      f"+- {row.loss_factor_rel_diff_sd:.1%}: {'holds' if row.holds else 'fails'}")
+            sigmas = getattr(row, "peak_shift_sigmas", float("nan"))
+            if np.isfinite(sigmas):
+                text += f" (peak {sigmas:.2g} sd from the coupled one)"
         if row.peak_at_edge:
             text += " (peak at the sweep's edge)"
         lines.append(text)
