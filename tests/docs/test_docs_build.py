@@ -190,3 +190,22 @@ def test_outputs_reference_names_every_column_of_the_ceq_table():
     text = (REPO / "docs" / "reference" / "outputs.md").read_text(encoding="utf-8")
     missing = [column for column in TABLE_COLUMNS if f"`{column}`" not in text]
     assert not missing, f"docs/reference/outputs.md does not describe {missing}"
+
+
+def test_readme_links_point_at_files_that_exist():
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    targets = re.findall(r"\]\(((?:docs|workflow)/[^)#\s]+)\)", text)
+    assert targets, "the README links into docs/"
+    missing = [target for target in targets if not (REPO / target).exists()]
+    assert not missing, f"README.md links to missing files: {missing}"
+
+
+def test_readme_figure_is_drawn_by_its_committed_command(tmp_path):
+    """The README cites `python docs/figures/pipeline.py`; it must still draw the figure."""
+    assert "python docs/figures/pipeline.py" in (REPO / "README.md").read_text(encoding="utf-8")
+    out = tmp_path / "pipeline.png"
+    env = {**os.environ, "MPLBACKEND": "Agg"}
+    run = subprocess.run([sys.executable, str(REPO / "docs" / "figures" / "pipeline.py"), str(out)],
+                         cwd=REPO, env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
