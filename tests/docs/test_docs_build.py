@@ -114,6 +114,17 @@ def test_schema_reference_has_every_key_with_its_bounds_and_default():
     assert schema_reference.undescribed(SMALL_SCHEMA) == ["materials.<name>.density_kg_m3"]
 
 
+def test_schema_reference_shows_what_a_config_sets_beside_the_default():
+    config = {"grid": {"freq_hz": [50, 100], "replicates": 1}, "engine": "dem",
+              "pairs": [{"friction": 0.5}]}
+    markdown = schema_reference.schema_to_markdown(SMALL_SCHEMA, config=config)
+    assert "`config.yaml` sets: `[50, 100]`" in _section(markdown, "grid.freq_hz")   # no default
+    assert "`config.yaml` sets: `\"dem\"`" in _section(markdown, "engine")
+    assert "sets" not in _section(markdown, "grid.replicates")                      # the default
+    assert "sets" not in _section(markdown, "pairs[].friction")                     # inside a list
+    assert "sets" not in _section(markdown, "grid")                                 # an object
+
+
 def test_schema_reference_headings_never_skip_a_level():
     """MyST warns (and -W fails) when a heading skips a level: nested keys sit one level down."""
     markdown = schema_reference.schema_to_markdown(SMALL_SCHEMA)
@@ -157,6 +168,14 @@ def test_records_page_has_a_section_and_a_table_per_record(tmp_path):
     assert "Command: `python benchmarks/bench_campaign.py config.yaml --workdir DIR`" in markdown
     assert "host node1, 2 CPUs, Python 3.11.2, Linux-x86_64" in markdown
     assert "idle machine" in markdown
+
+
+def test_records_in_subfolders_are_found(tmp_path):
+    (tmp_path / "bench_dem").mkdir()
+    _write_record(tmp_path / "bench_dem", "run1.json", benchmark="bench_dem")
+    found = records.load_records(tmp_path)
+    assert [r["_file"] for r in found] == ["bench_dem/run1.json"]
+    assert "Record: `benchmarks/records/bench_dem/run1.json`" in records.records_to_markdown(found)
 
 
 def test_records_refuse_a_record_without_its_command(tmp_path):

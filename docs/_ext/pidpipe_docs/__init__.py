@@ -50,7 +50,8 @@ def write_generated(app) -> None:
 
     schema_path = repo / "workflow" / "schemas" / "config.schema.yaml"
     schema = yaml.safe_load(schema_path.read_text(encoding="utf-8"))
-    _write(out / "config.md", schema_reference.schema_to_markdown(schema))
+    campaign = yaml.safe_load((repo / "config.yaml").read_text(encoding="utf-8"))
+    _write(out / "config.md", schema_reference.schema_to_markdown(schema, config=campaign))
     missing = schema_reference.undescribed(schema)
     if missing:
         LOG.info("pidpipe_docs: schema keys without a description: %s", ", ".join(missing))

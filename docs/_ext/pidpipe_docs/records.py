@@ -28,7 +28,7 @@ class RecordError(ValueError):
 
 
 def load_records(folder: Path) -> list[dict]:
-    """Every ``*.json`` record of ``folder``, ordered by benchmark and then date.
+    """Every ``*.json`` record under ``folder`` (subfolders included), by benchmark, then date.
 
     Parameters
     ----------
@@ -38,7 +38,7 @@ def load_records(folder: Path) -> list[dict]:
     Returns
     -------
     list of dict
-        Each record with ``_file``, its file name, added.
+        Each record with ``_file``, its path under ``folder``, added.
 
     Raises
     ------
@@ -46,19 +46,21 @@ def load_records(folder: Path) -> list[dict]:
         A file that is not a JSON object with the keys of :data:`REQUIRED`.
     """
     records = []
-    for path in sorted(Path(folder).glob("*.json")):
+    folder = Path(folder)
+    for path in sorted(folder.rglob("*.json")):
+        name = path.relative_to(folder).as_posix()
         try:
             record = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as exc:
-            raise RecordError(f"{path.name}: not a JSON record ({exc})") from None
+            raise RecordError(f"{name}: not a JSON record ({exc})") from None
         if not isinstance(record, dict):
-            raise RecordError(f"{path.name}: a record is a JSON object")
+            raise RecordError(f"{name}: a record is a JSON object")
         missing = [key for key in REQUIRED if key not in record]
         if missing:
-            raise RecordError(f"{path.name}: missing {', '.join(missing)}")
+            raise RecordError(f"{name}: missing {', '.join(missing)}")
         if not isinstance(record["figures"], dict):
-            raise RecordError(f"{path.name}: figures must be an object of name: value")
-        records.append({**record, "_file": path.name})
+            raise RecordError(f"{name}: figures must be an object of name: value")
+        records.append({**record, "_file": name})
     return sorted(records, key=lambda r: (str(r["benchmark"]), str(r["date"]), r["_file"]))
 
 

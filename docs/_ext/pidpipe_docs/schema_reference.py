@@ -186,7 +186,25 @@ def label(path: str) -> str:
     return "config-" + "-".join(part for part in text.split("-") if part)
 
 
-def schema_to_markdown(schema: dict, source: str = "workflow/schemas/config.schema.yaml") -> str:
+#: Marks a key that a config does not set.
+ABSENT = object()
+
+
+def configured_value(config: dict | None, path: str):
+    """The value ``config`` gives the key at ``path``, or :data:`ABSENT` (also for paths
+    through lists ``[]`` or user-named entries ``<name>``)."""
+    if config is None or "[]" in path or "<name>" in path:
+        return ABSENT
+    value = config
+    for part in path.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return ABSENT
+        value = value[part]
+    return value
+
+
+def schema_to_markdown(schema: dict, source: str = "workflow/schemas/config.schema.yaml",
+                       config: dict | None = None, config_name: str = "config.yaml") -> str:
     """The configuration reference page, in MyST Markdown.
 
     Parameters
@@ -195,6 +213,11 @@ def schema_to_markdown(schema: dict, source: str = "workflow/schemas/config.sche
         The config's JSON schema.
     source : str
         The schema's path, named on the page.
+    config : dict, optional
+        A config (the default campaign's): where it sets a scalar or list key to a value other
+        than the default, the page shows that value too.
+    config_name : str
+        The config's file name, as the page names it.
 
     Returns
     -------
@@ -209,7 +232,8 @@ def schema_to_markdown(schema: dict, source: str = "workflow/schemas/config.sche
         f"Generated from `{source}` at every build of these pages: the same schema validates",
         "`config.yaml` before anything runs, so this list and the validation cannot disagree.",
         "Keys left out of a config take the default shown. `[]` marks the items of a list,",
-        "`<name>` an entry whose name you choose.",
+        "`<name>` an entry whose name you choose. Where the default campaign's `config.yaml` sets",
+        "a key to another value than the default, that value is shown too.",
         "",
     ]
     if schema.get("description"):
@@ -223,6 +247,10 @@ def schema_to_markdown(schema: dict, source: str = "workflow/schemas/config.sche
             facts.append("bounds: " + "; ".join(key.bounds))
         if key.default is not None:
             facts.append(f"default: `{key.default}`")
+        value = configured_value(config, key.path)
+        if value is not ABSENT and not isinstance(value, dict) and (
+                "default" not in key.node or value != key.node["default"]):
+            facts.append(f"`{config_name}` sets: `{json.dumps(value, ensure_ascii=False)}`")
         if key.required:
             facts.append("required")
         lines += [f"- {fact}" for fact in facts] + [""]
