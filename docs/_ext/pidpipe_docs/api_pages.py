@@ -52,7 +52,11 @@ def group_page(group: str, modules: list[Module]) -> str:
     for module in modules:
         if module.error:
             continue
-        lines += [f"## `{module.name}`", "", "```{eval-rst}", f".. automodule:: {module.name}", "```", ""]
+        # :ignore-module-all: documents what a module defines, not what its __all__ re-exports
+        # (a subpackage's __init__ re-exports its modules' names, documented there).
+        heading = [] if module.name == group else [f"## `{module.name}`", ""]
+        lines += [*heading, "```{eval-rst}", f".. automodule:: {module.name}",
+                  "   :ignore-module-all:", "```", ""]
     if failed:
         lines += ["## Not rendered", "", "These modules did not import when the pages were built:", ""]
         lines += [f"- `{m.name}`: {m.error}" for m in failed] + [""]
