@@ -18,12 +18,11 @@ import re
 from pathlib import Path
 
 import yaml
-from sphinx.errors import ExtensionError
-from sphinx.util import logging
 
 from . import api_pages, cli_reference, records, schema_reference
 
-LOG = logging.getLogger(__name__)
+# Sphinx is imported inside the functions that Sphinx calls, so that the generators above can be
+# imported (and tested) where Sphinx is not installed.
 
 
 def _write(path: Path, text: str) -> None:
@@ -33,6 +32,8 @@ def _write(path: Path, text: str) -> None:
 
 
 def _cli_parser():
+    from sphinx.errors import ExtensionError
+
     from pidpipe import cli
 
     for name in ("_parser", "build_parser", "parser"):
@@ -44,6 +45,9 @@ def _cli_parser():
 
 def write_generated(app) -> None:
     """Write every generated page (see the module's docstring)."""
+    from sphinx.errors import ExtensionError
+    from sphinx.util import logging
+
     docs = Path(app.srcdir)
     repo = docs.parent
     out = docs / "reference" / "generated"
@@ -54,7 +58,7 @@ def write_generated(app) -> None:
     _write(out / "config.md", schema_reference.schema_to_markdown(schema, config=campaign))
     missing = schema_reference.undescribed(schema)
     if missing:
-        LOG.info("pidpipe_docs: schema keys without a description: %s", ", ".join(missing))
+        logging.getLogger(__name__).info("pidpipe_docs: schema keys without a description: %s", ", ".join(missing))
 
     _write(out / "cli.md", cli_reference.cli_to_markdown(_cli_parser()))
 
