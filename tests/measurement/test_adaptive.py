@@ -12,6 +12,7 @@ import pytest
 
 from pidpipe.measurement.adaptive import (
     MAX_STEPS,
+    RESTING_BED,
     TARGET_NOT_REACHED,
     combine_runs,
     components_of,
@@ -170,6 +171,24 @@ def test_a_ceq_not_resolved_from_zero_is_not_chased():
     assert len(record.target["runs"]) == 1 and record.target["steps"] == []
     assert record.target["not_chased"] == "C_eq is not resolved from zero"
     assert "not_resolved" in record.flags or "negative_dissipation" in record.flags
+
+
+def test_a_pilot_whose_bed_rests_is_not_chased():
+    """Below lift-off the pilot's bed rides the floor (regime no_lift_off): no step is taken,
+    however far the SEM is from the target; the same engine with a bouncing bed is chased."""
+    engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)   # would need more cells
+
+    def resting(packings, cycles, index):
+        return engine.shake(packings, cycles, index).with_(regime="no_lift_off")
+
+    pilot = [FakePacking(300 + j) for j in range(7)]
+    record = measure_to_target(pilot, 40, 0.05, LIMITS, resting, packings_from(300), costs(5.0),
+                               lambda records: combine_runs(records, F_HZ, G, 441))
+    target = record.target
+    assert len(engine.calls) == 1 and len(target["runs"]) == 1 and target["steps"] == []
+    assert target["not_chased"] == RESTING_BED and TARGET_NOT_REACHED in record.flags
+    chased = measure(SyntheticEngine(packing_std=0.25, cycle_noise=0.05), 0.05, LIMITS)
+    assert len(chased.target["runs"]) > 1 and chased.target["not_chased"] is None
 
 
 @pytest.mark.parametrize("flag", ["not_steady", "not_stationary"])
