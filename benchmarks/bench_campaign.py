@@ -1,4 +1,4 @@
-"""Wall and CPU time of a whole campaign on this machine, with the split by stage (issues 3, 13).
+"""What does a whole campaign cost on this machine, wall and CPU, and where by stage? (issues 3, 13)
 
 Runs ``snakemake --cores 2`` on a config (default: the repository's config.yaml, the 60-case
 reference campaign) in a scratch copy of the workflow, then sums the per-job benchmark files
@@ -107,7 +107,7 @@ def main() -> None:
                         f"f{freq:g}Hz_cells": f"{group['cells'].min()}-{group['cells'].max()}",
                         f"f{freq:g}Hz_measured_cycles": f"{group['cycles'].min()}-{group['cycles'].max()}"})
     lines += ["", "Every case: " + "; ".join(
-        f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached else ' (missed)'}"
+        f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached or target is None else ' (missed)'}"
         for row in counted.sort_values("case_id").itertuples())]
     lines.append(f"\nSummed job time / (wall x cores) = {jobs['s'].sum() / (wall * args.cores):.2f} (core use).")
     conditions = (f"CPU of Snakemake and every job (all processes) {cpu:.0f} s, i.e. {cpu / args.cores:.0f} s "
@@ -126,7 +126,8 @@ def case_row(record: dict) -> dict:
     engine = record.get("engine") or {}
     return {"case_id": record["case_id"], "freq_hz": record["freq_hz"], "status": record["status"],
             "wall_s": target.get("wall_time_s", record.get("wall_time_s", float("nan"))),
-            "cpu_s": target.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))),
+            "cpu_s": target.get("cpu_time_s", engine.get("cpu_time_s",
+                                                      engine.get("liggghts_cpu_time_s", float("nan")))),
             "rel_sem": abs(sem / value) if value else float("nan"),
             "reached": bool(target.get("reached", False)),
             "not_chased": bool(target.get("not_chased")) or (
