@@ -9,9 +9,10 @@ cell-step, and their ratio.
 
 It needs the design and the surrogate of the config's campaign (made by
 ``snakemake optimum --cores 2 --configfile benchmarks/host_check.yaml``); the host's packings
-are poured into results/work/host/packings on first use and reused (as ``snakemake host`` does).
+are poured into RESULTS/work/host/packings on first use and reused (as ``snakemake host`` does).
 
 Run: .venv/bin/python benchmarks/bench_host.py [--configfile benchmarks/host_check.yaml] [--level 1]
+         [--results results] [--set host.freq_points=3 ...]
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import time
 
 import numpy as np
 import yaml
-from harness import REPO, record
+from harness import REPO, apply_overrides, record
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config, validate_config
@@ -47,14 +48,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--configfile", default="benchmarks/host_check.yaml",
                         help="extends config.yaml, as snakemake --configfile does")
     parser.add_argument("--level", type=int, default=None, help="index into host.force_n")
+    parser.add_argument("--results", default="results",
+                        help="the campaign's results folder (surrogate.json, optimum.json), "
+                             "relative to the repository")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
+                        help="override one config value (repeatable), e.g. host.freq_points=3")
     args = parser.parse_args(argv)
     raw = yaml.safe_load((REPO / "config.yaml").read_text())
     extra = yaml.safe_load((REPO / args.configfile).read_text())
-    config = host_params(validate_config(_merged(raw, extra)))
-    results = REPO / "results"
+    config = host_params(validate_config(apply_overrides(_merged(raw, extra), args.set)))
+    results = REPO / args.results
     for name in ("surrogate.json", "optimum.json"):
         if not (results / name).is_file():
-            sys.exit(f"bench_host: results/{name} is missing: run `snakemake optimum --cores 2 "
+            sys.exit(f"bench_host: {args.results}/{name} is missing: run `snakemake optimum --cores 2 "
                      f"--configfile {args.configfile}` first")
     settings, load, surrogate, draws, packings, _ = prepare_host(
         config, str(results / "surrogate.json"), str(results / "optimum.json"),
