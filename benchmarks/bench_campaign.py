@@ -79,7 +79,7 @@ def main() -> None:
                "pool_packings": pool,
                "core_use": round(float(jobs["s"].sum()) / (wall * args.cores), 2),
                "cpu_all_processes_s": round(cpu, 1)}
-    lines = [f"Campaign {Path(args.config).name} {' '.join(args.set)}: {len(records)} cases, wall time "
+    lines = [f"Campaign {args.config} {' '.join(args.set)}: {len(records)} cases, wall time "
              f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
              f"case status counts: {cases['status'].value_counts().to_dict()}; target "
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
@@ -115,7 +115,7 @@ def main() -> None:
                   f"{load_after} (other sessions share the cores).")
     lines.append(conditions)
     print("\n".join(lines))
-    record("bench_campaign", figures, notes=f"Config {Path(args.config).name} {' '.join(args.set)}. "
+    record("bench_campaign", figures, notes=f"Config {args.config} {' '.join(args.set)}. "
            + conditions)
 
 
