@@ -101,9 +101,10 @@ timing(_cases, "pool_packings", pool, count=True)
 if ".pour_" in sys.argv[1]:
     import pidpipe.dem.pour as _pour
     timing(_pour, "pour_replicates", engine)
-else:
+else:   # run_dem_case starts its run with start_dem_case; a continued run extends it
     import pidpipe.dem.case as _case
-    timing(_case, "run_dem_case", engine)
+    timing(_case, "start_dem_case", engine)
+    timing(_case.DemCaseRun, "extend", engine)
 start = now()
 exec(compile("run_step(" + call, "step", "exec"), globals())
 step = since(start)
