@@ -1,4 +1,4 @@
-"""Wall and CPU time of a whole campaign on this machine, with the split by stage (issues 3, 13).
+"""What does a whole campaign cost on this machine, wall and CPU, and where by stage? (issues 3, 13)
 
 Runs ``snakemake --cores 2`` on a config (default: the repository's config.yaml, the 60-case
 reference campaign) in a scratch copy of the workflow, then sums the per-job benchmark files
@@ -7,6 +7,8 @@ target's included), every case's relative SEM, how many cases reached their targ
 many were not chased: C_eq not resolved from zero, or a pilot flagged not_steady or
 not_stationary), the cells and cycles they ended with, and
 the pours (the grid's and those poured on demand into the shared pool).
+
+Its figures go to ``benchmarks/records/bench_campaign.json`` (:mod:`harness`).
 
 Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
          [--set fidelity.target_relative_sem=0.1 --set grid.freq_hz=[500,1000] ...] [--keep DIR]
@@ -24,19 +26,16 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pandas as pd
-import yaml
-from _record import append
-
-REPO = Path(__file__).resolve().parent.parent
+from harness import REPO, SNAKEMAKE, load_average, measured, record, scratch_workflow
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("config", nargs="?", default=str(REPO / "config.yaml"))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config", nargs="?", default=str(REPO / "config.yaml"),
+                        help="the campaign's config (default: the repository's config.yaml)")
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
                         help="override one config value (repeatable)")
@@ -48,28 +47,15 @@ def main() -> None:
         work = Path(args.workdir) if args.workdir else Path(scratch)
         if args.workdir:
             work.mkdir(parents=True, exist_ok=False)
-        for item in ("Snakefile", "workflow", "templates"):
-            source = REPO / item
-            (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
-        config = yaml.safe_load(Path(args.config).read_text())
-        for override in args.set:
-            path, value = override.split("=", 1)
-            if "." in path:
-                section, key = path.split(".", 1)
-                config.setdefault(section, {})[key] = yaml.safe_load(value)
-            else:
-                config[path] = yaml.safe_load(value)
-        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-        load_before = Path("/proc/loadavg").read_text().split()[:3]
-        cpu_before = _children_cpu_s()
-        start = time.perf_counter()
-        done = subprocess.run([str(Path(sys.executable).parent / "snakemake"), "--cores", str(args.cores),
-                               "--quiet", "rules", "all"], cwd=work, check=False, stdout=subprocess.DEVNULL)
-        wall = time.perf_counter() - start
-        cpu = _children_cpu_s() - cpu_before
-        load_after = Path("/proc/loadavg").read_text().split()[:3]
+        config = scratch_workflow(work, args.config, args.set)
+        load_before = load_average()
+        with measured() as run:
+            done = subprocess.run([SNAKEMAKE, "--cores", str(args.cores), "--quiet", "rules", "all"],
+                                  cwd=work, check=False, stdout=subprocess.DEVNULL)
+        load_after = load_average()
         if done.returncode != 0:
             sys.exit(f"snakemake failed (exit {done.returncode}); nothing recorded")
+        wall, cpu = run.wall_s, run.children_cpu_s
         rows = []
         for tsv in (work / "results" / "benchmarks").rglob("*.tsv"):
             frame = pd.read_csv(tsv, sep="\t")
@@ -83,16 +69,29 @@ def main() -> None:
         cases = pd.DataFrame([case_row(r) for r in records])
     counted = cases[cases["status"] != "failed"]
     target = config.get("fidelity", {}).get("target_relative_sem", "schema default")
-    lines = [f"Campaign {Path(args.config).name} {' '.join(args.set)}: {len(records)} cases, wall time "
+    figures = {"cases": len(records), "cores": args.cores, "wall_s": round(wall, 1),
+               "engine_cpu_s": round(float(counted["cpu_s"].sum()), 1),
+               **{f"status_{status}": int(n) for status, n in cases["status"].value_counts().items()},
+               "target_relative_sem": "null" if target is None else target,
+               "reached": int(counted["reached"].sum()), "not_chased": int(counted["not_chased"].sum()),
+               "rel_sem_median_pct": round(100 * float(counted["rel_sem"].median()), 2),
+               "rel_sem_max_pct": round(100 * float(counted["rel_sem"].max()), 2),
+               "pool_packings": pool,
+               "core_use": round(float(jobs["s"].sum()) / (wall * args.cores), 2),
+               "cpu_all_processes_s": round(cpu, 1)}
+    lines = [f"Campaign {args.config} {' '.join(args.set)}: {len(records)} cases, wall time "
              f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
              f"case status counts: {cases['status'].value_counts().to_dict()}; target "
              f"{target}: {int(counted['reached'].sum())} of {len(counted)} reached, "
-             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot or later run failing a steady-state check); relative SEM "
+             f"{int(counted['not_chased'].sum())} not chased (not resolved from zero, or a pilot or later "
+             f"run failing a steady-state check); relative SEM "
              f"median {counted['rel_sem'].median():.1%}, largest {counted['rel_sem'].max():.1%}; "
              f"{pool} packings poured on demand into the pool (their CPU is inside the case jobs)", "",
              "| stage (rule) | jobs | summed job time s |", "|---|---|---|"]
     for rule, group in jobs.groupby("rule"):
         lines.append(f"| {rule} | {len(group)} | {group['s'].sum():.1f} |")
+        figures[f"{rule}_jobs"] = len(group)
+        figures[f"{rule}_job_time_s"] = round(float(group["s"].sum()), 1)
     lines += ["", "| frequency Hz | cases | wall s (summed) | engine CPU s (summed) | mean CPU s per case | "
               "at target | median rel. SEM | cells (min-max) | measured cycles (min-max) |",
               "|---|---|---|---|---|---|---|---|---|"]
@@ -101,27 +100,23 @@ def main() -> None:
                      f"{group['cpu_s'].mean():.1f} | {int(group['reached'].sum())} | "
                      f"{group['rel_sem'].median():.1%} | {group['cells'].min()}-{group['cells'].max()} | "
                      f"{group['cycles'].min()}-{group['cycles'].max()} |")
+        figures.update({f"f{freq:g}Hz_cases": len(group),
+                        f"f{freq:g}Hz_engine_cpu_s": round(float(group["cpu_s"].sum()), 1),
+                        f"f{freq:g}Hz_reached": int(group["reached"].sum()),
+                        f"f{freq:g}Hz_rel_sem_median_pct": round(100 * float(group["rel_sem"].median()), 2),
+                        f"f{freq:g}Hz_cells": f"{group['cells'].min()}-{group['cells'].max()}",
+                        f"f{freq:g}Hz_measured_cycles": f"{group['cycles'].min()}-{group['cycles'].max()}"})
     lines += ["", "Every case: " + "; ".join(
-        f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached else ' (missed)'}"
+        f"{row.case_id} {row.rel_sem:.1%}{'' if row.reached or target is None else ' (missed)'}"
         for row in counted.sort_values("case_id").itertuples())]
     lines.append(f"\nSummed job time / (wall x cores) = {jobs['s'].sum() / (wall * args.cores):.2f} (core use).")
-    lines.append(f"CPU of Snakemake and every job (all processes) {cpu:.0f} s, i.e. {cpu / args.cores:.0f} s on "
-                 f"{args.cores} busy cores; load average (1, 5, 15 min) before {' '.join(load_before)}, "
-                 f"after {' '.join(load_after)} (other sessions share the cores).")
-    options = [f"--set {item}" for item in args.set] + (
-        [f"--cores {args.cores}"] if args.cores != 2 else []) + (
-        [f"--workdir {args.workdir}"] if args.workdir else []) + (
-        [f"--keep {args.keep}"] if args.keep else [])
-    append("Whole campaign", " ".join(["python benchmarks/bench_campaign.py", Path(args.config).name,
-                                       *options]), lines)
-
-
-def _children_cpu_s() -> float:
-    """User + system CPU of this process's finished children (Snakemake and its jobs), s."""
-    import resource
-
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+    conditions = (f"CPU of Snakemake and every job (all processes) {cpu:.0f} s, i.e. {cpu / args.cores:.0f} s "
+                  f"on {args.cores} busy cores; load average (1, 5, 15 min) before {load_before}, after "
+                  f"{load_after} (other sessions share the cores).")
+    lines.append(conditions)
+    print("\n".join(lines))
+    record("bench_campaign", figures, notes=f"Config {args.config} {' '.join(args.set)}. "
+           + conditions)
 
 
 def case_row(record: dict) -> dict:
@@ -131,7 +126,8 @@ def case_row(record: dict) -> dict:
     engine = record.get("engine") or {}
     return {"case_id": record["case_id"], "freq_hz": record["freq_hz"], "status": record["status"],
             "wall_s": target.get("wall_time_s", record.get("wall_time_s", float("nan"))),
-            "cpu_s": target.get("cpu_time_s", engine.get("liggghts_cpu_time_s", float("nan"))),
+            "cpu_s": target.get("cpu_time_s", engine.get("cpu_time_s",
+                                                      engine.get("liggghts_cpu_time_s", float("nan")))),
             "rel_sem": abs(sem / value) if value else float("nan"),
             "reached": bool(target.get("reached", False)),
             "not_chased": bool(target.get("not_chased")) or (

@@ -1,5 +1,6 @@
-"""k cells in one LIGGGHTS run against k single-cell runs: cost, and what the spread between
-cells adds to the standard error (fidelity.cells_per_run, issue 5).
+"""What do k cells in one LIGGGHTS run cost against k single-cell runs, and what does the spread
+between cells add to the standard error (fidelity.cells_per_run, issue 5)? And what does a run
+of k cells cost (``--cost``: the allocation's cost model)?
 
 For each frequency (5 g, 50 % fill, the default fidelity) it shakes replicate packings 0..k-1
 once together (one run, :mod:`pidpipe.replicate_cells`) and once each alone, and reports:
@@ -33,6 +34,9 @@ engine's entry.
 
 Run: .venv/bin/python benchmarks/bench_cells.py --cost --engine dem [packings folder]
 
+Records: ``benchmarks/records/bench_cells.json`` (k cells against single runs) and
+``bench_cells_cost_<engine>.json`` (the cost measurement), :mod:`harness`.
+
 ``--cost --engine dem --pours-only`` measures the pours alone and refits the entry with the runs
 it already holds (the run and pour terms are fitted apart): for a pour term to be measured
 again without the runs, whose cost this machine's speed moves by up to 2x from one hour to the
@@ -41,13 +45,13 @@ next.
 
 from __future__ import annotations
 
+import argparse
 import math
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from _record import append
+from harness import machine_line, record
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
@@ -76,8 +80,6 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
                  pours_only: bool = False) -> None:
     """Measure the CPU time of runs of k cells and of pours; fit and store ``engine``'s cost
     model (``pours_only``: the pours alone, the runs kept from the stored entry)."""
-    from _record import machine
-
     from pidpipe.cell.scene import CellScene
     from pidpipe.measurement.cost_model import fit_cost_model, load_cost_model, store_cost_model
 
@@ -122,7 +124,7 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
                 points.append({"fill_pct": fill, "n_spheres": packings[0].n_spheres, "freq_hz": freq,
                                "cells": k, "steps": steps, "cpu_s": cpu})
                 print(points[-1], flush=True)
-    model = fit_cost_model(points, pours, engine=engine, machine=machine(), command=command,
+    model = fit_cost_model(points, pours, engine=engine, machine=machine_line(), command=command,
                            pairs=engine == "dem")
     path = store_cost_model(model)
     for p in points:
@@ -131,28 +133,46 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
                      f"{model.run_cpu_s(p['cells'], p['n_spheres'], p['steps']):.2f} |")
     if pours_only:
         lines += ["", f"Runs kept from the stored entry ({kept.date}, `{kept.command}`); pours measured now."]
+    pour_cpu = [p["cpu_s"] for p in pours]
     lines += ["", f"Model (written to {path.name}): {model.describe()}",
-              f"Pours: {len(pours)}, CPU s each {np.mean([p['cpu_s'] for p in pours]):.2f} mean, "
-              f"{np.min([p['cpu_s'] for p in pours]):.2f}-{np.max([p['cpu_s'] for p in pours]):.2f}."]
-    append(f"Cost of a run of k cells (the allocation's cost model, "
-           f"{'LIGGGHTS' if engine == 'liggghts' else 'compiled DEM'})", command, lines)
+              f"Pours: {len(pours)}, CPU s each {np.mean(pour_cpu):.2f} mean, "
+              f"{np.min(pour_cpu):.2f}-{np.max(pour_cpu):.2f}."]
+    print("\n".join(lines))
+    figures = {"model": model.describe(), "runs": len(points), "pours": len(pours),
+               "pour_cpu_mean_s": round(float(np.mean(pour_cpu)), 3),
+               "pour_cpu_range_s": f"{np.min(pour_cpu):.2f}-{np.max(pour_cpu):.2f}"}
+    for p in points:
+        name = f"fill{p['fill_pct']:g}_f{p['freq_hz']:g}Hz_cells{p['cells']}"
+        figures[f"{name}_cpu_s"] = round(p["cpu_s"], 3)
+        figures[f"{name}_model_s"] = round(model.run_cpu_s(p["cells"], p["n_spheres"], p["steps"]), 3)
+    record(f"bench_cells_cost_{engine}", figures,
+           notes=f"Cost of a run of k cells, {'LIGGGHTS' if engine == 'liggghts' else 'compiled DEM'}; "
+                 f"the model is written to pidpipe/measurement/{path.name}."
+                 + (" Runs kept from the stored entry; pours measured now." if pours_only else ""))
 
 
 def main() -> None:
-    if sys.argv[1:2] == ["--cost"]:
-        rest = sys.argv[2:]
-        engine = "liggghts"
-        if rest[:1] == ["--engine"]:
-            engine, rest = rest[1], rest[2:]
-            if engine not in ("liggghts", "dem"):
-                raise SystemExit(f"--engine {engine}: expected liggghts or dem")
-        pours_only = "--pours-only" in rest
-        rest = [arg for arg in rest if arg != "--pours-only"]
-        measure_cost(engine, rest[0] if rest else None, pours_only)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("values", nargs="*", metavar="K [FREQ_HZ ...] | PACKINGS_DIR",
+                        help="cells and frequencies to compare (default 7 cells, 100 500 1000 Hz); "
+                             "with --cost, a folder that keeps the packings")
+    parser.add_argument("--cost", action="store_true", help="measure and store the cost model")
+    parser.add_argument("--engine", choices=("liggghts", "dem"), default="liggghts",
+                        help="the cost model's engine (with --cost)")
+    parser.add_argument("--pours-only", action="store_true",
+                        help="with --cost: measure the pours, keep the stored runs")
+    args = parser.parse_args()
+    if args.cost:
+        if len(args.values) > 1:
+            parser.error("--cost takes at most one packings folder")
+        measure_cost(args.engine, args.values[0] if args.values else None, args.pours_only)
         return
-    cells = int(sys.argv[1]) if len(sys.argv) > 1 else 7
-    freqs = [float(f) for f in sys.argv[2:]] or [100.0, 500.0, 1000.0]
+    if args.engine != "liggghts" or args.pours_only:
+        parser.error("--engine and --pours-only go with --cost")
+    cells = int(args.values[0]) if args.values else 7
+    freqs = [float(f) for f in args.values[1:]] or [100.0, 500.0, 1000.0]
     config = load_config()
+    figures = {"cells": cells}
     lines = [f"| f Hz | CPU s, {cells} cells in one run | CPU s, {cells} single runs | ratio | "
              "C_eq per cell N s/m | cycle SEM | between-cells SEM | between / cycle | "
              "moved cells vs alone: max abs z |",
@@ -169,19 +189,27 @@ def main() -> None:
             z = [(cell["ceq_cell_ns_m"] - single.ceq_cell_ns_m)
                  / math.hypot(cell["ceq_cell_sem_ns_m"], single.ceq_cell_sem_ns_m)
                  for cell, single in zip(together.cells[1:], alone[1:])]
+            max_z = float(np.max(np.abs(z))) if z else float("nan")
             cycle = together.ceq_cell_cycle_sem_ns_m
             between = together.ceq_cell_between_cells_sem_ns_m
             lines.append(f"| {freq:g} | {cpu_together:.1f} | {cpu_alone:.1f} | "
                          f"{cpu_together / cpu_alone:.2f} | {together.ceq_cell_ns_m:.4g} | "
                          f"{cycle:.2g} ({cycle / together.ceq_cell_ns_m:.1%}) | "
                          f"{between:.2g} ({between / together.ceq_cell_ns_m:.1%}) | "
-                         f"{between / cycle:.2f} | {np.max(np.abs(z)):.2f} |")
+                         f"{between / cycle:.2f} | {max_z:.2f} |")
             print(lines[-1], flush=True)
-    lines += ["", f"{ACCEL_G:g} g, {FILL_PCT:g} % fill, default fidelity; replicate packings "
-              f"0..{cells - 1} (seeds fidelity.seed + k). CPU = LIGGGHTS process CPU time. "
-              "z = (moved cell - same packing alone) / combined SEM."]
-    append(f"{cells} cells in one run against {cells} single runs",
-           "python benchmarks/bench_cells.py " + " ".join(sys.argv[1:]), lines)
+            figures.update({f"f{freq:g}Hz_cpu_together_s": round(cpu_together, 2),
+                            f"f{freq:g}Hz_cpu_alone_s": round(cpu_alone, 2),
+                            f"f{freq:g}Hz_cpu_ratio": round(cpu_together / cpu_alone, 3),
+                            f"f{freq:g}Hz_ceq_cell_ns_m": together["ceq_cell_ns_m"],
+                            f"f{freq:g}Hz_cycle_sem_pct": round(100 * cycle / together["ceq_cell_ns_m"], 2),
+                            f"f{freq:g}Hz_between_cells_sem_pct": round(100 * between / together["ceq_cell_ns_m"], 2),
+                            f"f{freq:g}Hz_max_abs_z": round(max_z, 2)})
+    notes = (f"{ACCEL_G:g} g, {FILL_PCT:g} % fill, default fidelity; replicate packings "
+             f"0..{cells - 1} (seeds fidelity.seed + k). CPU = LIGGGHTS process CPU time. "
+             "z = (moved cell - same packing alone) / combined SEM.")
+    print("\n".join(lines + ["", notes]))
+    record("bench_cells", figures, notes=notes)
 
 
 if __name__ == "__main__":

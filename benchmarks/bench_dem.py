@@ -1,4 +1,4 @@
-"""Speed of the compiled DEM against LIGGGHTS (issue 12), both measured in one run.
+"""How much faster is the compiled DEM than LIGGGHTS per particle-step (issue 12)? Both in one run.
 
 Scenes: 1, 7 and 28 cells of 11 and of 19 acrylic spheres (50 % and 90 % fill; one packing of
 each size poured by LIGGGHTS, repeated in every cell), 500 Hz, 5 g, the default fidelity
@@ -19,6 +19,9 @@ the machine's load falls on both alike); the table then gives each engine's medi
 rounds, the ratio of the medians, and the lowest and highest ratio of one round's pair, so that
 one noisy timing neither makes nor breaks a target.
 
+Figures go to ``benchmarks/records/bench_dem.json`` (:mod:`harness`): per scene
+(``spheres<n>_cells<k>_...``) each engine's ns per particle-step and the speed-up.
+
 Run: .venv/bin/python benchmarks/bench_dem.py [--cycles 4] [--min-cpu 2] [--repeats 1]
      [--spheres 11 19] [--cells 1 7 28] [--no-liggghts]
 """
@@ -37,7 +40,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _record import append
+from harness import record
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
@@ -237,9 +240,21 @@ def main() -> None:
     if args.repeats > 1:
         lines[-3:-3] = ["", f"Times, rates and ratios: medians over the {args.repeats} rounds; "
                         "the last column: the lowest and highest ratio of one round's pair."]
+    figures = {"load_average_start": round(load_start, 2), "load_average_end": round(os.getloadavg()[0], 2)}
     for n, k, dems, ligs in rows:
         dem = median_timing(dems)
         lig = None if ligs is None else median_timing(ligs)
+        scene = f"spheres{n}_cells{k}"
+        figures.update({f"{scene}_dem_steps": dem["steps"],
+                        f"{scene}_dem_wall_ns_per_particle_step": round(1e9 / dem["particle_steps_per_s"], 1),
+                        f"{scene}_dem_cpu_ns_per_particle_step": round(1e9 / dem["cpu_particle_steps_per_s"], 1)})
+        if lig is not None:
+            figures.update({
+                f"{scene}_liggghts_steps": lig["steps"],
+                f"{scene}_liggghts_loop_ns_per_particle_step": round(1e9 / lig["particle_steps_per_s"], 1),
+                f"{scene}_liggghts_cpu_ns_per_particle_step": round(1e9 / lig["cpu_particle_steps_per_s"], 1),
+                f"{scene}_speed_up_wall": round(dem["particle_steps_per_s"] / lig["particle_steps_per_s"], 2),
+                f"{scene}_speed_up_cpu": round(dem["cpu_particle_steps_per_s"] / lig["cpu_particle_steps_per_s"], 2)})
         lig_cols = ("- | - | - | - | - | -" if lig is None else
                     f"{lig['steps']}{runs_note(lig['runs'])} | {lig['seconds']:.2f} | "
                     f"{lig['cpu_seconds']:.2f} | {1e9 / lig['particle_steps_per_s']:.0f} / "
@@ -250,6 +265,9 @@ def main() -> None:
         if args.repeats > 1:
             spread = (" - |" if ligs is None else
                       " {:.1f}-{:.1f}x |".format(*round_ratios(dems, ligs, "cpu_particle_steps_per_s")))
+            if ligs is not None:
+                low, high = round_ratios(dems, ligs, "cpu_particle_steps_per_s")
+                figures[f"{scene}_speed_up_cpu_rounds"] = f"{low:.1f}-{high:.1f}"
         lines.append(f"| {n} | {k} | {dem['steps']} | {dem['seconds']:.3f} | "
                      f"{dem['cpu_seconds']:.3f} | {1e9 / dem['particle_steps_per_s']:.0f} / "
                      f"{1e9 / dem['cpu_particle_steps_per_s']:.0f} | {lig_cols} |{spread}")
@@ -257,12 +275,11 @@ def main() -> None:
               "start + one step of one cell of 11 spheres):"]
     for label, (imported, first_call) in compiled.items():
         lines.append(f"- {label}: import {imported:.2f} s, first call {first_call:.2f} s")
-    append("Compiled DEM against LIGGGHTS", "python benchmarks/bench_dem.py"
-           + f" --cycles {args.cycles} --min-cpu {args.min_cpu:g}"
-           + (f" --repeats {args.repeats}" if args.repeats > 1 else "")
-           + ("" if args.spheres == list(FILLS) else " --spheres " + " ".join(map(str, args.spheres)))
-           + ("" if args.cells == list(CELLS) else " --cells " + " ".join(map(str, args.cells)))
-           + (" --no-liggghts" if args.no_liggghts else ""), lines)
+        key = label.replace(" ", "_")
+        figures[f"{key}_import_s"] = round(imported, 2)
+        figures[f"{key}_first_call_s"] = round(first_call, 2)
+    print("\n".join(lines))
+    record("bench_dem", figures, notes=lines[0])
 
 
 if __name__ == "__main__":

@@ -1,17 +1,18 @@
-"""CPU of one host-coupled frequency sweep (issue 15), and of the dashpot model's.
+"""What does one host-coupled frequency sweep cost against the dashpot model's (issue 15)?
 
 One force level of the host check (config ``host``; default: the middle level), every frequency
 of its sweep, run one after the other in this process: the coupled host with its k cells in the
 compiled DEM (:func:`pidpipe.loop.coupled_sweep.run_point`), then the dashpot model at the same
 frequencies with every redrawn surrogate (:func:`pidpipe.loop.host.equivalent_curves` of that
-level). It prints (and appends to results.md) the CPU time of each, per frequency and per
+level). It prints (and records in ``benchmarks/records/bench_host.json``) the CPU time of each, per frequency and per
 cell-step, and their ratio.
 
 It needs the design and the surrogate of the config's campaign (made by
 ``snakemake optimum --cores 2 --configfile benchmarks/host_check.yaml``); the host's packings
-are poured into results/work/host/packings on first use and reused (as ``snakemake host`` does).
+are poured into RESULTS/work/host/packings on first use and reused (as ``snakemake host`` does).
 
 Run: .venv/bin/python benchmarks/bench_host.py [--configfile benchmarks/host_check.yaml] [--level 1]
+         [--results results] [--set host.freq_points=3 ...]
 """
 
 from __future__ import annotations
@@ -21,19 +22,16 @@ import copy
 import dataclasses
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import yaml
-from _record import append
+from harness import REPO, apply_overrides, record
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config, validate_config
 from pidpipe.loop.coupled_sweep import run_point
 from pidpipe.loop.host import coupled_points, equivalent_curves
 from pidpipe.steps.host import host_params, prepare_host
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def _merged(base: dict, extra: dict) -> dict:
@@ -50,14 +48,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--configfile", default="benchmarks/host_check.yaml",
                         help="extends config.yaml, as snakemake --configfile does")
     parser.add_argument("--level", type=int, default=None, help="index into host.force_n")
+    parser.add_argument("--results", default="results",
+                        help="the campaign's results folder (surrogate.json, optimum.json), "
+                             "relative to the repository")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
+                        help="override one config value (repeatable), e.g. host.freq_points=3")
     args = parser.parse_args(argv)
-    raw = yaml.safe_load((ROOT / "config.yaml").read_text())
-    extra = yaml.safe_load((ROOT / args.configfile).read_text())
-    config = host_params(validate_config(_merged(raw, extra)))
-    results = ROOT / "results"
+    raw = yaml.safe_load((REPO / "config.yaml").read_text())
+    extra = yaml.safe_load((REPO / args.configfile).read_text())
+    config = host_params(validate_config(apply_overrides(_merged(raw, extra), args.set)))
+    results = REPO / args.results
     for name in ("surrogate.json", "optimum.json"):
         if not (results / name).is_file():
-            sys.exit(f"bench_host: results/{name} is missing: run `snakemake optimum --cores 2 "
+            sys.exit(f"bench_host: {args.results}/{name} is missing: run `snakemake optimum --cores 2 "
                      f"--configfile {args.configfile}` first")
     settings, load, surrogate, draws, packings, _ = prepare_host(
         config, str(results / "surrogate.json"), str(results / "optimum.json"),
@@ -100,8 +103,15 @@ def main(argv: list[str] | None = None) -> None:
         f"{__import__('numba').__version__}. The whole `snakemake host` runs "
         f"{len(settings.force_n)} such sweeps, two runs at a time with --cores 2.",
     ]
-    append("Host-coupled frequency sweep", "python benchmarks/bench_host.py "
-           + " ".join(argv if argv is not None else sys.argv[1:]), lines)
+    print("\n".join(lines))
+    record("bench_host", {
+        "force_n": force, "frequencies": len(points), "cells": int(packings.shape[0]),
+        "cycles_per_frequency": cycles,
+        "coupled_cpu_s": round(coupled_cpu, 2), "coupled_wall_s": round(coupled_wall, 2),
+        "coupled_cpu_per_frequency_s": round(coupled_cpu / len(points), 3),
+        "coupled_us_per_cell_step": round(1e6 * coupled_cpu / cell_steps, 4),
+        "dashpot_cpu_s": round(equivalent_cpu, 3), "dashpot_surrogates": len(draws),
+        "coupled_over_dashpot_cpu": round(coupled_cpu / equivalent_cpu, 1)}, notes=lines[0])
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Where the wall time of a DEM campaign's Snakemake jobs goes, and where the campaign's goes (issue 13).
+"""Where does the wall time of a DEM campaign's Snakemake jobs go, and the campaign's (issue 13)?
 
 Part 1, one job of each kind. A scratch copy of the workflow runs a one-case DEM campaign
 (engine dem, pour_engine dem; 1000 Hz, 10 g, 25 %; the config's cells_per_run pours) with
@@ -26,7 +26,10 @@ the chain after the last case (the critical path's tail), the first pours (which
 compiling the kernel if Numba's cache was cold) and the packings poured on demand inside case
 jobs (from the case logs' time stamps).
 
+Figures go to ``benchmarks/records/bench_job_startup.json`` (:mod:`harness`).
+
 Run: .venv/bin/python benchmarks/bench_job_startup.py [--repeats 3] [--campaign DIR] [--cores 2]
+         [--skip-jobs]
 """
 
 from __future__ import annotations
@@ -37,17 +40,14 @@ import datetime
 import json
 import os
 import re
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from collections import defaultdict
 from pathlib import Path
 
-from _record import append
-from _workflow import dem_workflow
+from harness import DEM_ENGINES, SNAKEMAKE, load_average, measured, record, scratch_workflow
 
 PYTHON = sys.executable
 
@@ -101,9 +101,10 @@ timing(_cases, "pool_packings", pool, count=True)
 if ".pour_" in sys.argv[1]:
     import pidpipe.dem.pour as _pour
     timing(_pour, "pour_replicates", engine)
-else:
+else:   # run_dem_case starts its run with start_dem_case; a continued run extends it
     import pidpipe.dem.case as _case
-    timing(_case, "run_dem_case", engine)
+    timing(_case, "start_dem_case", engine)
+    timing(_case.DemCaseRun, "extend", engine)
 start = now()
 exec(compile("run_step(" + call, "step", "exec"), globals())
 step = since(start)
@@ -123,19 +124,14 @@ STEP_IMPORTS = {
 }
 
 
-def children_cpu() -> float:
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def timed_run(command: list[str], cwd: Path) -> tuple[float, float, str]:
     """Wall and CPU (s) of one child process, and its stdout."""
-    cpu, wall = children_cpu(), time.perf_counter()
-    done = subprocess.run(command, cwd=cwd, check=False, capture_output=True, text=True)
+    with measured() as run:
+        done = subprocess.run(command, cwd=cwd, check=False, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"{command[0]} {' '.join(command[1:])[-200:]} failed (exit {done.returncode}):\n"
                  f"{done.stderr[-3000:]}")
-    return time.perf_counter() - wall, children_cpu() - cpu, done.stdout
+    return run.wall_s, run.children_cpu_s, done.stdout
 
 
 def metadata(work: Path) -> list[dict]:
@@ -161,7 +157,7 @@ def median_pair(values: list[list[float]]) -> tuple[float, float]:
     return statistics.median(v[0] for v in values), statistics.median(v[1] for v in values)
 
 
-def part_one(repeats: int, cores: int, lines: list[str]) -> None:
+def part_one(repeats: int, cores: int, lines: list[str], figures: dict) -> None:
     with tempfile.TemporaryDirectory(prefix="bench_job_startup_") as scratch:
         work = Path(scratch)
 
@@ -169,9 +165,8 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
             config["grid"] = {"freq_hz": [1000], "accel_g": [10], "fill_pct": [25]}
             config["inspection"]["phase_figure_cases"] = []
 
-        dem_workflow(work, one_case)
-        snakemake = str(Path(PYTHON).parent / "snakemake")
-        wall, cpu, _ = timed_run([snakemake, "--cores", str(cores), "--quiet", "rules",
+        scratch_workflow(work, overrides=DEM_ENGINES, edit=one_case)
+        wall, cpu, _ = timed_run([SNAKEMAKE, "--cores", str(cores), "--quiet", "rules",
                                   "--skip-script-cleanup", "cases"], work)
         jobs = jobs_of(metadata(work))
         first, last = min(j["start"] for j in jobs), max(j["end"] for j in jobs)
@@ -187,6 +182,8 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                      f"{len(spans['pour_dem_packings'])} pour job(s), the check, 1 case) on {cores} cores: "
                      f"{wall:.1f} s wall, {cpu:.1f} s CPU; Snakemake before the first job and after "
                      f"the last {wall - (last - first):.1f} s.")
+        figures.update({"one_case_campaign_wall_s": round(wall, 2), "one_case_campaign_cpu_s": round(cpu, 2),
+                        "snakemake_outside_jobs_s": round(wall - (last - first), 2)})
         for rule in ("pour_dem_packings", "simulate_dem_cases"):
             if rule in bench:
                 lines.append(f"- {rule}: job span (Snakemake) median {statistics.median(spans[rule]):.2f} s; "
@@ -215,11 +212,16 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
             for rule in ("pour_dem_packings", "simulate_dem_cases"):
                 w, c = median_pair(values[rule])
                 cells += [f"{w:.3f}", f"{c:.3f}"]
+                key = phase.split(" (")[0].replace(" ", "_")
+                figures[f"{rule}_{key}_wall_s"] = round(w, 3)
+                figures[f"{rule}_{key}_cpu_s"] = round(c, 3)
             lines.append(f"| {phase} | " + " | ".join(cells) + " |")
         cells = []
         for rule in ("pour_dem_packings", "simulate_dem_cases"):
             w, c = median_pair(outer[rule])
             cells += [f"**{w:.3f}**", f"**{c:.3f}**"]
+            figures[f"{rule}_whole_process_wall_s"] = round(w, 3)
+            figures[f"{rule}_whole_process_cpu_s"] = round(c, 3)
         lines.append("| whole process (timed from outside) | " + " | ".join(cells) + " |")
         for rule in results:
             loads = defaultdict(list)
@@ -240,6 +242,7 @@ def part_one(repeats: int, cores: int, lines: list[str]) -> None:
                 if match:
                     by_package[match.group(2).split(".")[0]] += int(match.group(1))
             top = sorted(by_package.items(), key=lambda kv: -kv[1])[:8]
+            figures[f"{rule}_imports_s"] = round(sum(by_package.values()) / 1e6, 3)
             lines.append(f"\n{rule}: imports (`python -X importtime`, self time summed by top-level package, "
                          f"total {sum(by_package.values()) / 1e6:.2f} s): "
                          + ", ".join(f"{name} {us / 1e6:.2f}" for name, us in top)
@@ -259,7 +262,7 @@ def rule_threads(campaign: Path, cores: int) -> dict[str, int]:
     return threads
 
 
-def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
+def part_two(campaign: Path, cores: int, lines: list[str], figures: dict) -> None:
     jobs = jobs_of(metadata(campaign))
     threads = rule_threads(campaign, cores)
     for job in jobs:
@@ -268,6 +271,7 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
     end = max(j["end"] for j in jobs)
     stages = {"pours": ["pour_packing", "pour_dem_packings"], "packing check": ["check_packings"],
               "cases": ["simulate_case", "simulate_dem_cases"]}
+    figures.update({"campaign_jobs": len(jobs), "campaign_first_to_last_job_s": round(end - t0, 1)})
     lines += ["", f"Campaign {campaign}: {len(jobs)} jobs, first job start to last job end "
               f"{end - t0:.1f} s on {cores} cores; job time {sum(j['end'] - j['start'] for j in jobs):.1f} s.",
               "", "| stage | jobs | from s | to s | span s | job time s | idle core-s in span (a job holds its rule's threads) |",
@@ -283,6 +287,9 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
         start, stop = min(j["start"] for j in group), max(j["end"] for j in group)
         busy_in_span = sum(j["cores"] * (min(j["end"], stop) - max(j["start"], start)) for j in jobs
                            if j["end"] > start and j["start"] < stop)
+        key = name.split(" (")[0].replace(" ", "_")
+        figures[f"campaign_{key}_span_s"] = round(stop - start, 1)
+        figures[f"campaign_{key}_idle_core_s"] = round(max(0.0, cores * (stop - start) - busy_in_span), 1)
         lines.append(f"| {name} | {len(group)} | {start - t0:.1f} | {stop - t0:.1f} | {stop - start:.1f} | "
                      f"{sum(j['end'] - j['start'] for j in group):.1f} | "
                      f"{max(0.0, cores * (stop - start) - busy_in_span):.1f} |")
@@ -314,20 +321,22 @@ def part_two(campaign: Path, cores: int, lines: list[str]) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--campaign", metavar="DIR", help="a finished campaign folder to analyse (read only)")
     parser.add_argument("--skip-jobs", action="store_true", help="only part 2 (needs --campaign)")
     args = parser.parse_args()
-    lines = [f"Load average before: {Path('/proc/loadavg').read_text().split()[:3]}", ""]
+    if args.skip_jobs and not args.campaign:
+        parser.error("--skip-jobs needs --campaign")
+    lines, figures = [f"Load average before: {load_average()}", ""], {}
     if not args.skip_jobs:
-        part_one(args.repeats, args.cores, lines)
+        part_one(args.repeats, args.cores, lines, figures)
     if args.campaign:
-        part_two(Path(args.campaign), args.cores, lines)
-    lines.append(f"\nLoad average after: {Path('/proc/loadavg').read_text().split()[:3]}")
-    command = "python benchmarks/bench_job_startup.py " + " ".join(sys.argv[1:])
-    append("Job start-up and campaign wall (DEM)", command, lines)
+        part_two(Path(args.campaign), args.cores, lines, figures)
+    lines.append(f"\nLoad average after: {load_average()}")
+    print("\n".join(lines))
+    record("bench_job_startup", figures, notes=f"{lines[0]}; {lines[-1].strip()}")
 
 
 if __name__ == "__main__":

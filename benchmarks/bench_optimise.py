@@ -1,4 +1,4 @@
-"""Wall and CPU of the campaign's optimise_environments step, this code against an older commit.
+"""Is the optimise_environments step faster (and still the same) with this code than with an older commit?
 
 The step (:func:`pidpipe.steps.design.optimise_surrogate`, two worker processes as the rule's
 ``threads: 2``, BLAS on one thread as the rule's script sets it) runs on a finished campaign's
@@ -6,6 +6,7 @@ surrogate and config, alternately with this checkout's pidpipe and with ``--base
 by ``git archive`` into a scratch folder and put first on the path), ``--repeats`` times each,
 each in a fresh process; wall and CPU (the process and its workers) are printed, and the files
 the two write are compared byte for byte. The machine is shared: compare the runs of one call.
+Figures go to ``benchmarks/records/bench_optimise.json`` (:mod:`harness`).
 
 Run: .venv/bin/python benchmarks/bench_optimise.py CAMPAIGN_DIR [--base REV] [--repeats 2] [--note TEXT]
 """
@@ -21,13 +22,12 @@ import sys
 import tempfile
 from pathlib import Path
 
-from _record import append
+from harness import REPO, measured, record
 
-REPO = Path(__file__).resolve().parent.parent
 FILES = ("optimum.csv", "history.csv", "optimum.json", "bootstrap.csv")
 
 STEP = r'''
-import json, os, resource, sys, time
+import json, os, sys, time
 os.environ.update(OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
 import yaml
 from pidpipe.steps.design import optimise_surrogate
@@ -39,22 +39,24 @@ optimise_surrogate(os.path.join(campaign, "results", "surrogate.json"), environm
                    budget_params(config), optimisation_params(config),
                    *(os.path.join(out, name) for name in ("optimum.csv", "history.csv", "optimum.json", "bootstrap.csv")),
                    workers=2)
-wall = time.perf_counter() - wall
-usage = [resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
-print(json.dumps({"wall": wall, "cpu": sum(u.ru_utime + u.ru_stime for u in usage)}))
+print(json.dumps({"wall": time.perf_counter() - wall}))
 '''
 
 
 def run(campaign: Path, out: Path, path: str | None) -> dict:
+    """One run of the step in a fresh process: its wall time (the step alone, s) and the CPU of
+    the process and its workers (imports included, s)."""
     env = dict(os.environ)
     if path:
         env["PYTHONPATH"] = path
     out.mkdir(parents=True, exist_ok=True)
-    done = subprocess.run([sys.executable, "-c", STEP, str(campaign), str(out)], env=env,
-                          capture_output=True, text=True, cwd=campaign)
+    with measured() as step:
+        done = subprocess.run([sys.executable, "-c", STEP, str(campaign), str(out)], env=env,
+                              capture_output=True, text=True, cwd=campaign)
     if done.returncode != 0:
         sys.exit(f"the optimise step failed:\n{done.stderr[-3000:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    return {"wall": json.loads(done.stdout.strip().splitlines()[-1])["wall"],
+            "cpu": step.children_cpu_s}
 
 
 def compare_optima(before: Path, this: Path) -> list[str]:
@@ -117,8 +119,15 @@ def main() -> None:
               f"byte for byte: {'yes' if same else 'NO'}."]
     if differences:
         lines += ["", "Where the designs differ (optimum.csv, this against before):", *differences]
-    append("optimise_environments: this code against an older commit", "python benchmarks/bench_optimise.py "
-           + " ".join(sys.argv[1:]), lines)
+    print("\n".join(lines))
+    figures = {"base": args.base, "head": head, "repeats": args.repeats,
+               "base_wall_median_s": round(statistics.median(t["wall"] for t in times["base"]), 2),
+               "base_cpu_median_s": round(statistics.median(t["cpu"] for t in times["base"]), 2),
+               "this_wall_median_s": round(statistics.median(t["wall"] for t in times["this"]), 2),
+               "this_cpu_median_s": round(statistics.median(t["cpu"] for t in times["this"]), 2),
+               "this_over_base_wall": round(ratio_w, 3), "this_over_base_cpu": round(ratio_c, 3),
+               "files_identical": same}
+    record("bench_optimise", figures, notes=args.note)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""CPU per pour of both engines (fidelity.pour_engine: liggghts | dem), and their piles, in one run.
+"""What does a pour cost in each engine (fidelity.pour_engine: liggghts | dem), and do their piles agree?
 
 For each default fill (25, 50, 75, 90 %) and replicates 0 .. ``--seeds``-1, the packing is
 poured by LIGGGHTS (:func:`pidpipe.liggghts.pour.pour`) and by the compiled DEM
@@ -27,6 +27,9 @@ files); the two runs' packings are compared byte for byte. Then, in this process
 packings poured one by one (:func:`pidpipe.dem.pour.pour`) against one batched call
 (:func:`pidpipe.dem.pour.pour_replicates`), CPU s, and whether they are identical.
 
+Records: ``benchmarks/records/bench_pour.json`` and, with ``--jobs``, ``bench_pour_jobs.json``
+(:mod:`harness`).
+
 Run: .venv/bin/python benchmarks/bench_pour.py [--seeds 10] | [--jobs [--note TEXT]]
 """
 
@@ -34,7 +37,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -42,7 +44,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _record import append
+from harness import (DEM_ENGINES, SNAKEMAKE, children_cpu_s, measured, own_cpu_s, record,
+                     scratch_workflow)
 
 from pidpipe.cell.pour_protocol import plan_pour
 from pidpipe.config import load_config
@@ -64,17 +67,15 @@ pour_with_engine(PourSettings.from_config(config), float(sys.argv[2]), 0, sys.ar
 
 def cpu_s() -> float:
     """CPU time of this process and its finished children, s."""
-    own, children = (resource.getrusage(who) for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+    return own_cpu_s() + children_cpu_s()
 
 
 def fresh_process_cpu_s(engine: str, fill: float, workdir: Path) -> float:
     """CPU of one pour in a new Python process (and its LIGGGHTS child), s."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run([sys.executable, "-c", FRESH_POUR, engine, str(fill), str(workdir)], check=True,
-                   capture_output=True, text=True)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    with measured() as fresh:
+        subprocess.run([sys.executable, "-c", FRESH_POUR, engine, str(fill), str(workdir)], check=True,
+                       capture_output=True, text=True)
+    return fresh.children_cpu_s
 
 
 def pour_stage(work: Path, per_packing: bool) -> dict:
@@ -92,12 +93,9 @@ def pour_stage(work: Path, per_packing: bool) -> dict:
 
     shutil.rmtree(work / "results", ignore_errors=True)
     shutil.rmtree(work / ".snakemake", ignore_errors=True)
-    command = [str(Path(sys.executable).parent / "snakemake"), "packings", "--cores", "2"]
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    wall = time.perf_counter()
-    done = subprocess.run(command, cwd=work, capture_output=True, text=True)
-    wall = time.perf_counter() - wall
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    command = [SNAKEMAKE, "packings", "--cores", "2"]
+    with measured() as run:
+        done = subprocess.run(command, cwd=work, capture_output=True, text=True)
     if done.returncode != 0:
         sys.exit(f"snakemake packings failed:\n{done.stderr[-3000:]}")
     jobs = []
@@ -105,22 +103,20 @@ def pour_stage(work: Path, per_packing: bool) -> dict:
         header, values = tsv.read_text().splitlines()[:2]
         row = dict(zip(header.split("\t"), values.split("\t")))
         jobs.append((tsv.parent.name, float(row["s"]), float(row["cpu_time"])))
-    return {"wall": wall, "cpu": (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime),
+    return {"wall": run.wall_s, "cpu": run.children_cpu_s,
             "jobs": jobs, "packings": {path.name: path.read_bytes()
                                        for path in (work / "results" / "packings").glob("r*.json")}}
 
 
 def bench_jobs(note: str) -> None:
     """The pour stage of the DEM campaign, one job per packing against one job per fill."""
-    from _workflow import dem_workflow
-
     from pidpipe.dem.pour import pour as dem_pour
     from pidpipe.dem.pour import pour_replicates
 
     load_start = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_pour_jobs_") as scratch:
         work = Path(scratch)
-        config = dem_workflow(work)
+        config = scratch_workflow(work, overrides=DEM_ENGINES)
         runs = {"one job per packing (pour_packing, before)": pour_stage(work, True),
                 "one job per fill (pour_dem_packings, after)": pour_stage(work, False)}
     (before, one), (after, batched) = runs.items()
@@ -143,6 +139,7 @@ def bench_jobs(note: str) -> None:
     lines += ["In one process, the 7 packings of each fill (CPU s):", "",
               "| fill % | one by one (pour) | one call (pour_replicates) | ratio | batched cells | identical |",
               "|---|---|---|---|---|---|"]
+    batched_figures = {}
     for fill in FILLS:
         began = cpu_s()
         alone = [dem_pour(settings, fill, k) for k in range(7)]
@@ -154,11 +151,21 @@ def bench_jobs(note: str) -> None:
         shared = sum(tops.count(t) for t in set(tops) if tops.count(t) > 1)
         lines.append(f"| {fill:g} | {single:.2f} | {batch:.2f} | {batch / single:.2f} | {shared} of 7 | "
                      f"{'yes' if alone == together else 'NO'} |")
+        batched_figures.update({f"fill{fill:g}_one_by_one_cpu_s": round(single, 2),
+                                f"fill{fill:g}_one_call_cpu_s": round(batch, 2),
+                                f"fill{fill:g}_identical": alone == together})
     lines += ["", "(Batched cells: those sharing their open pouring cell with another replicate, "
               "which one kernel call pours together; the others are poured one by one in the same call.)",
               f"Load average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}"]
-    append("Pours of the DEM campaign: one job per packing against one batched job per fill (issue 13)",
-           "python benchmarks/bench_pour.py --jobs" + (f" --note '{note}'" if note else ""), lines)
+    print("\n".join(lines))
+    figures = {"packings": len(one["packings"]), "packings_identical": same}
+    for key, run in (("per_packing", one), ("per_fill", batched)):
+        pours = [j for j in run["jobs"] if j[0].startswith("pour")]
+        figures.update({f"{key}_jobs": len(pours), f"{key}_snakemake_wall_s": round(run["wall"], 1),
+                        f"{key}_cpu_all_processes_s": round(run["cpu"], 1),
+                        f"{key}_jobs_cpu_s": round(sum(j[2] for j in pours), 1)})
+    figures.update(batched_figures)
+    record("bench_pour_jobs", figures, notes=(f"{note}. " if note else "") + lines[1])
 
 
 def main() -> None:
@@ -227,8 +234,18 @@ def main() -> None:
         lines.append(f"| {fill:g} | {' | '.join(cells)} | {further[0]}/{further[1]} | "
                      f"{max(lig[:, 4].max(), dem[:, 4].max()):.1g} |")
     lines += ["", "(± is the standard error of the mean over the seeds, and of the difference.)"]
-    append("Pours: LIGGGHTS against the compiled DEM (issue 13)",
-           f"python benchmarks/bench_pour.py --seeds {args.seeds}", lines)
+    print("\n".join(lines))
+    figures = {"seeds": args.seeds, "wall_s": round(wall, 1)}
+    for fill in FILLS:
+        (lig, lig_fresh), (dem, dem_fresh) = results[fill, "liggghts"], results[fill, "dem"]
+        figures.update({f"fill{fill:g}_spheres": int(lig[0, 5]),
+                        f"fill{fill:g}_liggghts_cpu_per_pour_s": round(float(lig[:, 0].mean()), 3),
+                        f"fill{fill:g}_dem_cpu_per_pour_s": round(float(dem[:, 0].mean()), 3),
+                        f"fill{fill:g}_liggghts_over_dem_cpu": round(float(lig[:, 0].mean() / dem[:, 0].mean()), 2),
+                        f"fill{fill:g}_liggghts_fresh_process_cpu_s": round(lig_fresh, 2),
+                        f"fill{fill:g}_dem_fresh_process_cpu_s": round(dem_fresh, 2),
+                        f"fill{fill:g}_pile_dem_minus_liggghts_mm": round(1e3 * float(dem[:, 1].mean() - lig[:, 1].mean()), 3)})
+    record("bench_pour", figures, notes=lines[0])
 
 
 if __name__ == "__main__":

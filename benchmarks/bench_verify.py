@@ -1,4 +1,4 @@
-"""CPU and wall time of `snakemake --cores 2 verify` on a finished campaign (issue 15).
+"""What does `snakemake --cores 2 verify` cost on a finished campaign, and what does it find (issue 15)?
 
 Copies a campaign's ``config.yaml`` and ``results/`` (modification times kept, the source is
 only read) into a scratch folder with this repository's workflow, checks by a dry run that
@@ -11,26 +11,22 @@ Run: .venv/bin/python benchmarks/bench_verify.py CAMPAIGN_DIR [--cores 2]
          [--set verify.engine=dem ...] [--workdir DIR]
 
 ``CAMPAIGN_DIR`` holds ``config.yaml`` and a finished campaign's ``results/`` (cases, table,
-surrogate, optimum). ``--workdir DIR`` keeps the run in DIR (created) instead of a scratch folder.
+surrogate, optimum). Figures go to ``benchmarks/records/bench_verify.json`` (:mod:`harness`).
+``--workdir DIR`` keeps the run in DIR (created) instead of a scratch folder.
 """
 
 from __future__ import annotations
 
 import argparse
 import re
-import resource
 import shutil
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pandas as pd
-import yaml
-from _record import append
-
-REPO = Path(__file__).resolve().parent.parent
+from harness import SNAKEMAKE, measured, record, scratch_workflow
 
 #: The rules of the verify stage: a dry run that plans any other rule means an unfinished campaign.
 VERIFY_RULES = {"plan_verify", "pour_verify_packing", "check_verify_packings",
@@ -51,14 +47,8 @@ def planned_rules(output: str) -> set[str]:
     return rules - {"total"}
 
 
-def children_cpu_s() -> float:
-    """User + system CPU seconds of every finished child process so far."""
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
 def main() -> None:
-    parser = argparse.ArgumentParser()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("campaign", help="folder with config.yaml and a finished campaign's results/")
     parser.add_argument("--cores", type=int, default=2)
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=YAML",
@@ -66,26 +56,17 @@ def main() -> None:
     parser.add_argument("--workdir", metavar="DIR", help="run in DIR and keep it")
     args = parser.parse_args()
     campaign = Path(args.campaign)
-    snakemake = str(Path(sys.executable).parent / "snakemake")
     with tempfile.TemporaryDirectory() as scratch:
         work = Path(args.workdir) if args.workdir else Path(scratch)
-        work.mkdir(parents=True, exist_ok=bool(not args.workdir))
-        for item in ("Snakefile", "workflow", "templates"):
-            source = REPO / item
-            (shutil.copytree if source.is_dir() else shutil.copy)(source, work / item)
+        if args.workdir:
+            work.mkdir(parents=True, exist_ok=False)
+        config = scratch_workflow(work, campaign / "config.yaml", args.set)
         shutil.copytree(campaign / "results", work / "results", symlinks=True)   # copy2: mtimes kept
         for earlier in ("verify", "verify.csv", "verify.png", "verify.pdf"):      # measure afresh
             path = work / "results" / earlier
             shutil.rmtree(path) if path.is_dir() else path.unlink(missing_ok=True)
         shutil.rmtree(work / "results" / "benchmarks" / "verify", ignore_errors=True)
-        config = yaml.safe_load((campaign / "config.yaml").read_text())
-        for override in args.set:
-            path, value = override.split("=", 1)
-            section, key = path.split(".", 1) if "." in path else (None, path)
-            target = config.setdefault(section, {}) if section else config
-            target[key] = yaml.safe_load(value)
-        (work / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
-        command = [snakemake, "verify", "--cores", str(args.cores), "--rerun-triggers", "mtime"]
+        command = [SNAKEMAKE, "verify", "--cores", str(args.cores), "--rerun-triggers", "mtime"]
         dry = subprocess.run(command + ["--dry-run"], cwd=work, text=True, stdout=subprocess.PIPE,
                              stderr=subprocess.STDOUT, check=False)
         other = planned_rules(dry.stdout) - VERIFY_RULES
@@ -93,10 +74,10 @@ def main() -> None:
             sys.exit(f"{campaign} is not a finished campaign: the dry run "
                      f"{'failed' if dry.returncode else 'plans ' + ', '.join(sorted(other))}; "
                      "nothing measured\n" + dry.stdout[-3000:])
-        cpu0, start = children_cpu_s(), time.perf_counter()
-        done = subprocess.run(command + ["--quiet", "rules"], cwd=work, check=False, text=True,
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-        wall, cpu = time.perf_counter() - start, children_cpu_s() - cpu0
+        with measured() as run:
+            done = subprocess.run(command + ["--quiet", "rules"], cwd=work, check=False, text=True,
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        wall, cpu = run.wall_s, run.children_cpu_s
         if done.returncode != 0:
             sys.exit(f"snakemake verify failed (exit {done.returncode}); nothing recorded\n"
                      + done.stdout[-3000:])
@@ -129,7 +110,14 @@ def main() -> None:
                      f"{row.ceq_coupon_dem_ns_m:.4g} ± {row.ceq_coupon_dem_sem_ns_m:.2g} | "
                      f"{row.ceq_coupon_surrogate_ns_m:.4g} ± {row.surrogate_u_ns_m:.2g} | "
                      f"{row.z_combined:+.2f} |")
-    append("snakemake verify", "python benchmarks/bench_verify.py " + " ".join(sys.argv[1:]), lines)
+    print("\n".join(lines))
+    figures = {"design_points": len(table), "cases": len(cases), "engine": engine,
+               "wall_s": round(wall, 1), "cores": args.cores, "cpu_all_processes_s": round(cpu, 1),
+               "cases_engine_cpu_s": round(float(cases["dem_cpu_time_s"].sum()), 1),
+               "pours": len(pours), "pours_cpu_s": round(pour_cpu, 1),
+               "surrogate_off": int(table["surrogate_off"].sum()),
+               "abs_z_combined_max": round(float(cases["z_combined"].abs().max()), 2)}
+    record("bench_verify", figures, notes=lines[0])
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
-"""Where a finished campaign's CPU went and what its steps bought (issue 13), and how its grid
-check reads (issue 12): the figures the README quotes from the default 5 % campaigns.
+"""Where did a finished campaign's CPU go, what did its steps buy (issue 13), and how does its
+grid check read (issue 12)? The figures the README quotes from the default 5 % campaigns.
 
-From ``results/cases/*.json``: the ``ok`` cases that reached the target; the CPU and the
+From ``results/cases/*.json`` (a case made without a target counts its pilot alone): the ``ok`` cases that reached the target; the CPU and the
 reached count of the 1 g cases; the engine CPU of the runs by kind, used and not used (a
 pilot replaced by a longer run is not used); each case's CPU over its pilot's, by
 acceleration; the flagged cases and the spread between packings over C_eq, by acceleration;
@@ -16,6 +16,8 @@ have, whether their records agree apart from timing (C_eq, its SEM, cells and cy
 and the engine CPU of those cases in each, by frequency, as a ratio measured on the same cases;
 then each case measured differently, with its cells, cycles, status, flags and CPU in each.
 
+Figures go to ``benchmarks/records/campaign_breakdown.json`` (:mod:`harness`).
+
 Run: .venv/bin/python benchmarks/campaign_breakdown.py RESULTS_DIR [--against OTHER_RESULTS_DIR]
 """
 
@@ -26,7 +28,7 @@ import json
 from pathlib import Path
 
 import pandas as pd
-from _record import append
+from harness import record
 
 UNSTEADY = {"not_steady", "not_stationary"}
 SAME_KEYS = ("ceq_cell_ns_m", "ceq_cell_sem_ns_m", "status", "flags")
@@ -34,8 +36,24 @@ SAME_KEYS = ("ceq_cell_ns_m", "ceq_cell_sem_ns_m", "status", "flags")
 
 
 def load_records(results: Path) -> list[dict]:
-    """Every case record of a results folder, by case id order."""
-    return [json.loads(p.read_text()) for p in sorted((results / "cases").glob("*.json"))]
+    """Every case record of a results folder, by case id order; a record made without a target
+    (``fidelity.target_relative_sem: null``) gets one of its pilot alone (:func:`pilot_only`)."""
+    records = [json.loads(p.read_text()) for p in sorted((results / "cases").glob("*.json"))]
+    for record in records:
+        if not record.get("target"):
+            record["target"] = pilot_only(record)
+    return records
+
+
+def pilot_only(record: dict) -> dict:
+    """The ``target`` entry of a case measured by its pilot alone: one used run, its engine CPU
+    (s), cells and cycles, not reached (there was no target)."""
+    engine = record.get("engine") or {}
+    cpu = engine.get("cpu_time_s", engine.get("liggghts_cpu_time_s", 0.0))
+    return {"cpu_time_s": cpu, "reached": False, "no_target": True,
+            "cells": int((record.get("fidelity") or {}).get("cells_per_run", 1)),
+            "measured_cycles": int(record.get("n_cycles", 0)),
+            "runs": [{"kind": "pilot", "used": True, "cpu_time_s": cpu, "flags": record.get("flags", [])}]}
 
 
 def cpu_by_kind(records: list[dict]) -> str:
@@ -111,9 +129,10 @@ def paired_cpu(records: list[dict], others: list[dict], other_dir: Path) -> list
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("results", type=Path)
-    parser.add_argument("--against", type=Path, metavar="OTHER_RESULTS_DIR")
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("results", type=Path, help="a finished campaign's results/ folder")
+    parser.add_argument("--against", type=Path, metavar="OTHER_RESULTS_DIR",
+                        help="the same config's results from other code, to compare with")
     args = parser.parse_args()
     results = args.results
     records = load_records(results)
@@ -125,6 +144,14 @@ def main() -> None:
     unsteady = [r for r in records if UNSTEADY & set(r["target"]["runs"][0]["flags"])]
     after = sum(run["cpu_time_s"] for r in unsteady for run in r["target"]["runs"][1:])
     cleared = sum(1 for r in unsteady if not UNSTEADY & set(r["flags"]))
+    figures = {"cases": len(records), "engine_cpu_s": round(total_cpu, 1), "ok": len(ok),
+               "cases_without_target": sum(1 for r in records if r["target"].get("no_target")),
+               "ok_reached": len(reached), "one_g_cases": len(one_g), "one_g_cpu_s": round(one_g_cpu, 1),
+               "one_g_reached": sum(1 for r in one_g if r["target"].get("reached")),
+               "unsteady_pilots": len(unsteady), "unsteady_later_runs_cpu_s": round(after, 1),
+               "unsteady_cleared": cleared, "cpu_by_kind_used_unused_s": cpu_by_kind(records),
+               "case_over_pilot_cpu_by_g": growth_by_acceleration(records),
+               "flagged_and_packing_spread_by_g": spread_by_acceleration(records)}
     lines = [f"{len(records)} cases, engine CPU {total_cpu:.0f} s; {len(reached)} of the {len(ok)} ok "
              f"cases reached their target; 1 g: {len(one_g)} cases, {one_g_cpu:.0f} s CPU "
              f"({one_g_cpu / total_cpu:.0%}), {sum(1 for r in one_g if r['target'].get('reached'))} "
@@ -152,11 +179,22 @@ def main() -> None:
         beyond = ", ".join(f"{row.case_id} {row.paired_rel_diff:+.1%} (z_paired {row.z_paired:+.1f})"
                            for row in both[both["z_paired"].abs() > 2].itertuples())
         lines.append(f"beyond 2 paired SEM (both ok): {beyond or 'none'}")
-    command = f"python benchmarks/campaign_breakdown.py {results}"
+        figures.update({"grid_median_abs_z_combined": round(float(grid["z_combined"].abs().median()), 3),
+                        "grid_median_abs_z_paired": round(float(both["z_paired"].abs().median()), 3),
+                        "grid_paired_agreement_by_g": by_g, "grid_median_abs_paired_rel_diff_by_g": size,
+                        "grid_one_g_paired": one_g, "grid_beyond_2_paired_sem": beyond or "none"})
     if args.against:
-        lines += ["", *paired_cpu(records, load_records(args.against), args.against)]
-        command += f" --against {args.against}"
-    append("Campaign breakdown", command, lines)
+        compared = paired_cpu(records, load_records(args.against), args.against)
+        lines += ["", *compared]
+        theirs = {r["case_id"]: r for r in load_records(args.against)}
+        pairs = [(r, theirs[r["case_id"]]) for r in records if r["case_id"] in theirs]
+        figures["against"] = compared[0]
+        if pairs:
+            figures["cpu_here_over_there"] = round(
+                sum(a["target"]["cpu_time_s"] for a, _ in pairs)
+                / sum(b["target"]["cpu_time_s"] for _, b in pairs), 3)
+    print("\n".join(lines))
+    record("campaign_breakdown", figures)
 
 
 if __name__ == "__main__":

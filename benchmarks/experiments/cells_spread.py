@@ -6,7 +6,7 @@ and by how much the between-cells standard error exceeds the cycle-to-cycle one,
 the reported relative SEM against the cycle part alone; and the worst mismatch between the
 cells' ledgers and the mesh's.
 
-Run: .venv/bin/python benchmarks/cells_spread.py [results/cases]
+Run: .venv/bin/python benchmarks/experiments/cells_spread.py [results/cases]
 """
 
 from __future__ import annotations
@@ -16,7 +16,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 
 def main() -> None:
@@ -41,7 +43,7 @@ def main() -> None:
              f"| cycle part alone, median | {np.median(cycle):.3f} |",
              f"| worst cell-ledger mismatch / work exchanged | "
              f"{max(r['ledger_mismatch_of_gross_work'] for r in records if r['status'] != 'failed'):.2g} |"]
-    append("Spread between cells over a campaign", f"python benchmarks/cells_spread.py {folder}", lines)
+    append("Spread between cells over a campaign", f"python benchmarks/experiments/cells_spread.py {folder}", lines)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ C_i(0.1) with the two-level estimate of :func:`pidpipe.measurement.cells.mean_of
 d_i's cycle SEM is the two runs' combined): the packings' own spread, which is the same at
 both timesteps, cancels, so a few cells resolve the timestep's error to about 1 %.
 
-Run: .venv/bin/python benchmarks/bench_timestep.py [--cells 7] [--cycles-500 80] [--cycles-1000 40]
+Run: .venv/bin/python benchmarks/experiments/bench_timestep.py [--cells 7] [--cycles-500 80] [--cycles-1000 40]
          [--fractions 0.1 0.2 0.3 0.4] [--fill 25 90 ...] [--packings DIR]
 """
 
@@ -20,7 +20,9 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.scene import CellScene
@@ -103,7 +105,7 @@ def main() -> None:
               "Error = mean cell at dt / mean cell at 0.1 t_R - 1, +- the two-level SEM of the "
               "cells' paired differences. Restitution at an impact speed of 0.5 m/s."]
     append("Timestep: C_eq at 0.2 / 0.3 / 0.4 t_R against 0.1 t_R on the same packings",
-           "python benchmarks/bench_timestep.py " + " ".join(sys.argv[1:]), lines)
+           "python benchmarks/experiments/bench_timestep.py " + " ".join(sys.argv[1:]), lines)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,7 @@ each ``--repeats`` times (the smallest CPU time of each counts: the machine is s
 - ``no bookkeeping``: every ``fix ave/time``, ``fix ave/atom``, dump and the timestep check
   removed, the floor that the mesh wall, the contacts and the integration cost alone.
 
-Run: .venv/bin/python benchmarks/bench_deck_bookkeeping.py [--cycles 8] [--repeats 5]
+Run: .venv/bin/python benchmarks/experiments/bench_deck_bookkeeping.py [--cycles 8] [--repeats 5]
 """
 
 from __future__ import annotations
@@ -21,10 +21,12 @@ import argparse
 import re
 import resource
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
-from _record import append
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
@@ -102,7 +104,7 @@ def main() -> None:
     lines = [scene, "", "| variant | CPU s | us per step | x deck |", "|---|---|---|---|"]
     for name, value in best.items():
         lines.append(f"| {name} | {value:.2f} | {1e6 * value / steps:.1f} | {value / best['deck']:.2f} |")
-    command = ("python benchmarks/bench_deck_bookkeeping.py "
+    command = ("python benchmarks/experiments/bench_deck_bookkeeping.py "
                f"--cycles {args.cycles} --repeats {args.repeats}")
     append("Shake deck bookkeeping cost", command, lines)
 

@@ -13,7 +13,7 @@ compared between:
 
 Printed: the largest difference of each against the unbroken run, over the largest value.
 
-Run: .venv/bin/python benchmarks/check_liggghts_restart.py CASE_WORKDIR
+Run: .venv/bin/python benchmarks/experiments/check_liggghts_restart.py CASE_WORKDIR
 """
 
 from __future__ import annotations
@@ -22,11 +22,14 @@ import argparse
 import re
 import shutil
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 COLUMNS = "id x y z vx vy vz omegax omegay omegaz"
 KEEP_AFTER_RESTART = ("communicate", "hard_particles", "neighbor", "neigh_modify", "pair_style",
@@ -97,7 +100,7 @@ def main() -> None:
              f"- one step past a run boundary (`run N` + `run 1` against `run N+1`): "
              f"{differences(split_step, step)}",
              f"- read_restart restored: {'; '.join(restored)}"]
-    append("LIGGGHTS 3.8: continuing a shake run", f"python benchmarks/check_liggghts_restart.py {args.workdir}",
+    append("LIGGGHTS 3.8: continuing a shake run", f"python benchmarks/experiments/check_liggghts_restart.py {args.workdir}",
            lines)
 
 

@@ -28,7 +28,7 @@ its standard error over the cells (:func:`pidpipe.studies.grid_check.paired_cell
 grid check's own test): the packings' spread cancels, what is left is the cycle noise and the
 divergence of chaotic cells.
 
-Run: .venv/bin/python benchmarks/bench_solver_difference.py [--cases 1000 750] [--fill 75]
+Run: .venv/bin/python benchmarks/experiments/bench_solver_difference.py [--cases 1000 750] [--fill 75]
          [--cells 7] [--cycles 80] [--packings DIR] [--variants NAME ...]
 """
 
@@ -42,7 +42,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.scene import CellScene
@@ -173,7 +175,7 @@ def main() -> None:
                              f"{100 * paired['paired_rel_diff_sem']:.3f} % | "
                              f"{paired['z_paired']:+.1f} | | |")
             print("\n".join(lines[-len(variants) - 1:]), file=sys.stderr, flush=True)
-    command = "benchmarks/bench_solver_difference.py " + " ".join(sys.argv[1:])
+    command = "benchmarks/experiments/bench_solver_difference.py " + " ".join(sys.argv[1:])
     append("Why the DEM dissipated less at 1 g: paired variants on the same packings", command.strip(),
            lines)
 

@@ -15,7 +15,7 @@ and tabulates the mean C_eq over the 19 packings of each realisation next to tho
 bench_scene.py (alone at the origin, the 19-cell patch, the coupon's first 19 cells), with the
 paired differences (mean +- SE over packings). Run bench_scene.py first.
 
-Run: .venv/bin/python benchmarks/bench_scene_realisations.py [--case 500:5]
+Run: .venv/bin/python benchmarks/experiments/bench_scene_realisations.py [--case 500:5]
 """
 
 from __future__ import annotations
@@ -27,7 +27,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cell.patch import ring_centres
 from pidpipe.cell.scene import CellScene
@@ -37,7 +39,7 @@ from pidpipe.liggghts.patch_run import run_patch
 from pidpipe.dem.pouring import replicate_packings
 from pidpipe.studies.scene import usable_packings
 
-WORK = Path(__file__).resolve().parent.parent / "results" / "work" / "scene"
+WORK = Path(__file__).resolve().parents[2] / "results" / "work" / "scene"
 PACKINGS = 19
 
 
@@ -94,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
               f"the realisation means scatter by {table.mean(axis=1).std(ddof=1):.4f}. Spheres in their "
               f"cells at every cycle end in every run: {'yes' if contained else 'NO'}."]
     append(f"Scene: realisations of the same packings at {freq:g} Hz, {accel:g} g (issue 5)",
-           "python benchmarks/bench_scene_realisations.py " + " ".join(sys.argv[1:] if argv is None else argv),
+           "python benchmarks/experiments/bench_scene_realisations.py " + " ".join(sys.argv[1:] if argv is None else argv),
            lines)
 
 

@@ -10,7 +10,7 @@ target are printed for both, and their ratio. The pool is copied to a scratch fo
 settings, and their CPU is not counted), so the campaign's folder is only read. The first
 case is shaken once beforehand, not counted, so that loading the compiled kernel is in neither.
 
-Run: .venv/bin/python benchmarks/bench_continuation.py CAMPAIGN_DIR [--cases ID ...]
+Run: .venv/bin/python benchmarks/experiments/bench_continuation.py CAMPAIGN_DIR [--cases ID ...]
 (CAMPAIGN_DIR holds config.yaml and results/; by default every case whose record has a
 ``more_cycles`` or ``both`` step.)
 """
@@ -20,10 +20,12 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
-from _record import append
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 from campaign_breakdown import cpu_by_kind
 
 from pidpipe.cases import CaseSpec
@@ -97,7 +99,7 @@ def main() -> None:
               "| case | continued: steps, CPU s, SEM % | replayed: steps, CPU s, SEM % |", "|---|---|---|"]
     for mine, theirs in zip(records["continued"], records["replayed"]):
         lines.append(f"| {mine.case_id} | {_steps(mine)} | {_steps(theirs)} |")
-    command = f"python benchmarks/bench_continuation.py {args.campaign}"
+    command = f"python benchmarks/experiments/bench_continuation.py {args.campaign}"
     if args.cases:
         command += " --cases " + " ".join(args.cases)
     append("Continuing the DEM's runs for more cycles", command, lines)

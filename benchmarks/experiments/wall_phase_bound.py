@@ -15,7 +15,7 @@ against its inertia (low frequency at 1 g), the bound is many times pi / N. This
 the bound of every 1 g case of a campaign (flagged ones too) from its records (C_eq, N, the spheres) and, when the
 campaign has a grid check, the paired DEM - LIGGGHTS difference it measured.
 
-Run: .venv/bin/python benchmarks/wall_phase_bound.py RESULTS_DIR
+Run: .venv/bin/python benchmarks/experiments/wall_phase_bound.py RESULTS_DIR
 """
 
 from __future__ import annotations
@@ -23,10 +23,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import pandas as pd
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.config import load_config
 from pidpipe.physics.contact import sphere_mass
@@ -63,7 +66,7 @@ def main() -> None:
             paired = f"{row['paired_rel_diff']:+.3%} +- {row['paired_rel_diff_sem']:.3%}"
         lines.append(f"| {record['case_id']} | {record['status']} | {steps} | {bound / phase:.1f} | {phase:.3%} | "
                      f"{bound:.2%} | {paired} |")
-    append("The wall-phase bound at 1 g", f"python benchmarks/wall_phase_bound.py {args.results}", lines)
+    append("The wall-phase bound at 1 g", f"python benchmarks/experiments/wall_phase_bound.py {args.results}", lines)
 
 
 if __name__ == "__main__":

@@ -3,15 +3,15 @@
 Used for the package's reorganisation (issue 11): the .test campaign run on the commit before
 and after a change must give the same packings, records and table.
 
-Usage: .venv/bin/python benchmarks/compare_campaigns.py BEFORE/results AFTER/results
+Usage: .venv/bin/python benchmarks/experiments/compare_campaigns.py BEFORE/results AFTER/results
 
 Records and packings must be identical apart from keys ending in _time_s (and ``cpu_s``); the
 table apart from its *_time_s columns. Exits 1 when anything differs.
 """
 import json
+import pandas as pd
 import sys
 from pathlib import Path
-import pandas as pd
 
 TIME_KEYS = ("_time_s",)
 

@@ -5,16 +5,18 @@ the steps per second, and the ratio of the pipeline's wall time (rendering, runn
 summarising: ``pidpipe.liggghts.shake.run_case``) to the wall time of the LIGGGHTS process and to
 LIGGGHTS' own loop time. Target: pipeline overhead under 5 % of the LIGGGHTS process.
 
-Run: .venv/bin/python benchmarks/bench_case.py
+Run: .venv/bin/python benchmarks/experiments/bench_case.py
 """
 
 from __future__ import annotations
 
+import sys
 import tempfile
 import time
 from pathlib import Path
 
-from _record import append
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
@@ -42,7 +44,7 @@ def main() -> None:
     lines.append("")
     lines.append("Pipeline = render + run + parse + summarise in one Python process; process = the "
                  "LIGGGHTS subprocess (start-up, mesh reading, run); loop = LIGGGHTS' own 'Loop time'.")
-    append("One case: pipeline against LIGGGHTS", "python benchmarks/bench_case.py", lines)
+    append("One case: pipeline against LIGGGHTS", "python benchmarks/experiments/bench_case.py", lines)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ and with the motion and a movie (20 frames a cycle over the last 3 cycles). It a
 closely the phase profile's dissipation over a cycle matches the record's E_d. It reports LIGGGHTS' CPU time (the smaller of the two
 repetitions) and its ratio to the plain run, the time to write the VTK series and its size.
 
-Run: .venv/bin/python benchmarks/bench_inspection.py
+Run: .venv/bin/python benchmarks/experiments/bench_inspection.py
 
 With ``--engine dem`` it measures instead what the motion sampling costs the compiled DEM (its
 kernel samples the motion in the same call): the same cases and packings, plain and with the
@@ -23,7 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from _record import append
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.config import load_config
@@ -75,7 +76,7 @@ def main_dem() -> None:
               "case. Default fidelity and sampling (20 windows a cycle, forces every 10 steps; the "
               "walls' power from every step's work)."]
     append("Looking inside a case in the compiled DEM: the cost of motion sampling",
-           "python benchmarks/bench_inspection.py --engine dem", lines)
+           "python benchmarks/experiments/bench_inspection.py --engine dem", lines)
 
 
 def main() -> None:
@@ -112,7 +113,7 @@ def main() -> None:
     lines.append("")
     lines.append(f"CPU = LIGGGHTS' CPU time, the smaller of {REPETITIONS} interleaved repetitions; "
                  "ratios against the plain run of the same case. Default fidelity otherwise.")
-    append("Looking inside a case: motion sampling and movie", "python benchmarks/bench_inspection.py", lines)
+    append("Looking inside a case: motion sampling and movie", "python benchmarks/experiments/bench_inspection.py", lines)
 
 
 if __name__ == "__main__":

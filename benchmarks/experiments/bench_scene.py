@@ -13,7 +13,7 @@ over cells, the coupon's C_eq (x 441), LIGGGHTS' CPU time, CPU per cell-cycle an
 one cell; the same packings compared across scenes; and the packing-to-packing scatter. The
 rows also go to results/scene/scene.csv and the figure to results/scene/scene.png.
 
-Run: .venv/bin/python benchmarks/bench_scene.py [--cases 500:5,1000:10] [--pour-workers 2]
+Run: .venv/bin/python benchmarks/experiments/bench_scene.py [--cases 500:5,1000:10] [--pour-workers 2]
 The cases, fill, coupon layout and CPU limit are config.yaml's ``scene`` section (the same study
 as ``snakemake --cores 2 scene``). Packings are poured once into results/work/scene/packings and reused.
 """
@@ -26,12 +26,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.config import load_config
 from pidpipe.studies.scene import plot_scenes, write_scene_study
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "results" / "scene"
 WORK = ROOT / "results" / "work" / "scene"
 
@@ -110,7 +112,7 @@ def main(argv: list[str] | None = None) -> None:
               "std = sqrt(std over the coupon's cells^2 - noise^2): what one cell's C_eq misses the "
               "coupon's mean cell by, beyond the noise of its run."]
     append("Scene: one cell x N against replicates, patches and the coupon (issue 5)",
-           "python benchmarks/bench_scene.py " + " ".join(sys.argv[1:] if argv is None else argv), lines)
+           "python benchmarks/experiments/bench_scene.py " + " ".join(sys.argv[1:] if argv is None else argv), lines)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ planned CPU of all cases (the pilot included), how many would reach it, and the 
 predicted relative SEM. The case's own measured CPU is printed next to its planned CPU as a check
 on the cost model.
 
-Run: .venv/bin/python benchmarks/predict_accuracy_cost.py DIR [target ...]   (default 0.10 0.05 0.02)
+Run: .venv/bin/python benchmarks/experiments/predict_accuracy_cost.py DIR [target ...]   (default 0.10 0.05 0.02)
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
@@ -82,7 +84,7 @@ def main() -> None:
               "config.yaml and the stored LIGGGHTS cost model, components as measured: a "
               "prediction, not a measurement."]
     append("What a target would cost, predicted from measured variance components",
-           "python benchmarks/predict_accuracy_cost.py " + " ".join(sys.argv[1:]), lines)
+           "python benchmarks/experiments/predict_accuracy_cost.py " + " ".join(sys.argv[1:]), lines)
 
 
 if __name__ == "__main__":

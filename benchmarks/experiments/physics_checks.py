@@ -9,17 +9,20 @@
    solver discards the transient its own run shows, by the same rule; --no-dem to skip,
    --validation-only to run only this part).
 
-Run: .venv/bin/python benchmarks/physics_checks.py [--no-dem | --validation-only]   (about 6 minutes on 2 cores)
+Run: .venv/bin/python benchmarks/experiments/physics_checks.py [--no-dem | --validation-only]   (about 6 minutes on 2 cores)
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cases import CaseSpec
 from pidpipe.cell.scene import CellScene
@@ -121,7 +124,7 @@ def main() -> None:
                 lines += validation_lines(scratch, packing)
     title = "Physics checks: LIGGGHTS against the NumPy DEM" if args.validation_only else "Physics checks"
     flag = " --validation-only" if args.validation_only else (" --no-dem" if args.no_dem else "")
-    append(title, f"python benchmarks/physics_checks.py{flag}", lines)
+    append(title, f"python benchmarks/experiments/physics_checks.py{flag}", lines)
 
 
 if __name__ == "__main__":

@@ -16,18 +16,21 @@ after 10 for the pre-shaken run), the drop of the bed's centre of mass over each
 (compaction), and the two steady means' ratio with its standard error (they must agree: same
 bed, same physics). CPU times are the DEM's.
 
-Run: .venv/bin/python benchmarks/bench_transient.py [--cells 7] [--cycles 50]
+Run: .venv/bin/python benchmarks/experiments/bench_transient.py [--cells 7] [--cycles 50]
          [--packings DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from _record import append
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # benchmarks/: the harness
+from harness import record_text as append  # noqa: E402
 
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import load_config
@@ -37,7 +40,7 @@ from pidpipe.dem.from_scene import dem_scene
 from pidpipe.measurement.steady_state import mser_truncation
 from pidpipe.steps.cases import pool_packings
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 CASES = ((1000, 10, 25), (1000, 5, 90), (750, 5, 50), (500, 5, 25), (500, 10, 90),
          (100, 5, 50), (50, 1, 75))
 """(frequency Hz, acceleration g, fill %) of the grid: both ends of f, G and fill."""
@@ -116,7 +119,7 @@ def main() -> None:
                      f"{shaken['bias']:+.0%} / {shaken['drop_um']:.0f} | {ratio:.3f} +- {error:.3f} | "
                      f"{row['cpu'][0]:.1f}, {row['cpu'][1]:.1f} |")
     append("Transient of a fresh and of a pre-shaken packing",
-           f"python benchmarks/bench_transient.py --cells {args.cells} --cycles {args.cycles}", lines)
+           f"python benchmarks/experiments/bench_transient.py --cells {args.cells} --cycles {args.cycles}", lines)
 
 
 if __name__ == "__main__":
