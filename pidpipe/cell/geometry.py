@@ -125,7 +125,7 @@ def cell_wall_triangles(cell: HexCell, top_z_m: float | None = None,
         floor and lid 6n - 2 triangles each, the same surfaces with more shared edges between
         coplanar triangles and still no vertex inside a face (every vertex lies on the
         hexagon's edges). Only for measuring what the edges of a flat face do
-        (``benchmarks/bench_solver_difference.py``).
+        (``benchmarks/experiments/bench_solver_difference.py``).
 
     Returns
     -------

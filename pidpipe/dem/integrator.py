@@ -13,7 +13,7 @@ One step, in LIGGGHTS' order:
 The walls are where LIGGGHTS' mesh is, as in the compiled kernel (``walls="viblin"``, the
 default); ``walls="exact"`` puts them at z_w(t + dt) = W (cos(omega (t + dt)) - 1) with the
 contacts seeing v_w(t + dt), the DEM's walls before 2026-12-01, kept to measure what that cost
-(``benchmarks/bench_solver_difference.py``).
+(``benchmarks/experiments/bench_solver_difference.py``).
 """
 
 from __future__ import annotations

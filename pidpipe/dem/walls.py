@@ -15,7 +15,7 @@ move over the step. Until 2026-12-01 the DEM placed them at z_w(t_n) = W (cos(om
 behind LIGGGHTS' mesh while the contacts saw the same v_w(t_n): the wall moved by u_w dt
 (:func:`wall_step_velocity`) in a step in which the contacts integrated v_w(t_n) dt. That
 half step made the DEM dissipate 0.1-0.3 % less than LIGGGHTS at 1 g
-(``benchmarks/bench_solver_difference.py``, README "Why the DEM dissipated less at 1 g").
+(``benchmarks/experiments/bench_solver_difference.py``, docs/explanation/validation.md, "Why the DEM once dissipated less at 1 g").
 
 With the exact walls, the wall's displacement over step n is z_w(t_n) - z_w(t_{n-1}), and its
 mean velocity over the step, :func:`wall_step_velocity`, is v_w at the middle of the step

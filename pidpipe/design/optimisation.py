@@ -9,7 +9,7 @@ The problem, for one operating environment::
                 1 <= n_c <= N_panel
 
 C_eq(f, G, r) is the coupon's equivalent damping with all N cells filled at r, so C_eq/N is one
-cell's; the cells are independent (README "The scene"), so the panel being designed may have more
+cell's; the cells are independent (docs/explanation/scene.md), so the panel being designed may have more
 cells than the coupon, N_panel >= N (``Budget.n_cells_panel``, config ``panel.n_cells``).
 ``s_full`` is the number of spheres in a cell at r = 100 %: 36 in the source study, 22 in
 pidpipe's default "poured capacity" definition.

@@ -15,7 +15,7 @@ ave/time`` files over consecutive windows of :meth:`MotionSampling.window_steps`
 
 A side wall's friction on a sphere inside a band also counts, but a sphere in the band is within
 1 % of a radius of touching the floor or the lid. The cost of the sampling is measured in
-``benchmarks/bench_inspection.py``.
+``benchmarks/experiments/bench_inspection.py``.
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ last :attr:`MovieSettings.cycles` cycles of the run (steps listed in :data:`STEP
 file-style variable through ``dump_modify every``), and :func:`write_case_movie` turns the dump
 into a VTK time series with the cell walls at each frame's wall position
 (:func:`pidpipe.cell.vtk_series.write_vtk_series`). Off by default; the cost is measured in
-``benchmarks/bench_inspection.py``.
+``benchmarks/experiments/bench_inspection.py``.
 """
 
 from __future__ import annotations

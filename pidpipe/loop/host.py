@@ -228,7 +228,7 @@ def _sd(values: np.ndarray) -> np.ndarray:
 
 def curves_table(settings: HostSettings, load: HostLoad, coupled: list[dict],
                  equivalent: dict) -> pd.DataFrame:
-    """One row per model, force level and frequency (columns: see the README's host section)."""
+    """One row per model, force level and frequency (columns: docs/explanation/validation.md, the host section)."""
     rows = []
     n_freq = settings.freq_points
     for level, force in enumerate(settings.force_n):

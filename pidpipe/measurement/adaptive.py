@@ -51,7 +51,7 @@ MAX_STEPS = 4
 
 PRIOR_PACKING_RELATIVE_STD = 0.06
 """Spread between packings assumed, as a fraction of C_eq, when the pilot has one cell (no
-spread to measure): 4.9-6.7 % was measured beyond the cycle noise (README "The scene")."""
+spread to measure): 4.9-6.7 % was measured beyond the cycle noise (docs/explanation/scene.md)."""
 
 UNSTEADY_FLAGS = ("not_steady", "not_stationary")
 """A pilot with one of these flags is not chased: in the default campaign at 5 % (2026-12-01,

@@ -278,7 +278,7 @@ def measure_case(settings: ShakeSettings, case: CaseSpec, packings: list, workdi
     continue_runs : bool
         More cycles continue the runs where the engine can (:func:`case_starter`); False: they
         make them again, longer, as on LIGGGHTS (to measure what continuing saves,
-        ``benchmarks/bench_continuation.py``).
+        ``benchmarks/experiments/bench_continuation.py``).
 
     Returns
     -------

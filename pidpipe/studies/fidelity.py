@@ -556,7 +556,7 @@ def plot_fidelity_study(table_path: str, summary_path: str, error_target: float,
 
 
 def summary_markdown(summary: pd.DataFrame) -> list[str]:
-    """The summary as Markdown table lines (errors in percent), for benchmarks/results.md."""
+    """The summary as Markdown table lines (errors in percent), for a benchmark record's notes (``benchmarks/record_fidelity.py``)."""
     lines = ["| variant | changes physics | steady cases used | flagged | median abs error % | "
              "max abs error % (case) | CPU s | CPU / baseline | meets target |",
              "|---|---|---|---|---|---|---|---|---|"]
