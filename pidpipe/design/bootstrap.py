@@ -21,7 +21,6 @@ Without a finite, non-negative SEM for every fitted row there is nothing to prop
 
 from __future__ import annotations
 
-
 import numpy as np
 import pandas as pd
 
