@@ -452,6 +452,8 @@ class HostSettings:
         ``equivalent`` or ``rest``: the host's state at t = 0.
     surrogate_draws, seed : int
     agreement_fraction : float
+    coupon_n_cells : int
+        N, the coupon's cells, whose C_eq / N is one cell's.
     """
 
     environment_index: int
@@ -471,6 +473,7 @@ class HostSettings:
     surrogate_draws: int
     seed: int
     agreement_fraction: float
+    coupon_n_cells: int
 
     @classmethod
     def from_config(cls, config: dict) -> "HostSettings":
@@ -496,7 +499,8 @@ class HostSettings:
             measured_cycles=int(host["measured_cycles"]),
             sem_block_cycles=int(host["sem_block_cycles"]), start=str(host["start"]),
             surrogate_draws=int(host["surrogate_draws"]), seed=int(host["seed"]),
-            agreement_fraction=float(host["agreement_fraction"]))
+            agreement_fraction=float(host["agreement_fraction"]),
+            coupon_n_cells=int(config["geometry"]["coupon_n_cells"]))
 
     @property
     def stiffness_n_m(self) -> float:
