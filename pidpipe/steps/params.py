@@ -55,27 +55,27 @@ def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
     return ([c for c in listed if c in known], [c for c in listed if c not in known])
 
 
-def case_movie_params(config: dict, case_id: str, movie_cases: list[str]) -> dict:
+def case_movie_params(inspection: Inspection, case_id: str, movie_cases: list[str]) -> dict:
     """A shaking job's movie settings: ``{}`` unless ``case_id`` is one of ``movie_cases``
     (:func:`inspected_cases`), else the frames per cycle, the cycles and the movie's folder."""
     if case_id not in movie_cases:
         return {}
-    movie = Inspection.from_config(config).movie
+    movie = inspection.movie
     return {"frames_per_cycle": movie.frames_per_cycle, "cycles": movie.cycles,
             "directory": f"results/movies/{case_id}"}
 
 
-def phase_figure_targets(config: dict, phase_figure_cases: list[str]) -> list[str]:
+def phase_figure_targets(inspection: Inspection, phase_figure_cases: list[str]) -> list[str]:
     """The phase-resolved figures of the report's gallery; none when the motion is not sampled."""
-    if Inspection.from_config(config).motion is None:
+    if inspection.motion is None:
         return []
     return [f"results/figures/phase/{case_id}.png" for case_id in phase_figure_cases]
 
 
-def ceq_table_path(config: dict) -> str:
+def ceq_table_path(optimisation: Optimisation) -> str:
     """The table the surrogate is fitted to: ``optimisation.external_ceq_table``, else the
     campaign's ``results/ceq_table.csv``."""
-    return Optimisation.from_config(config).external_ceq_table or "results/ceq_table.csv"
+    return optimisation.external_ceq_table or "results/ceq_table.csv"
 
 
 def validation_params(config: dict) -> list[dict]:
@@ -83,10 +83,10 @@ def validation_params(config: dict) -> list[dict]:
     return Validation.from_config(config).as_params()
 
 
-def validation_packing_ids(config: dict) -> list[str]:
+def validation_packing_ids(validation: Validation) -> list[str]:
     """The replicate-0 packing of every fill in ``validation.cases``, sorted."""
     return sorted({CaseSpec(1.0, 1.0, float(case.fill_pct)).packing_id
-                   for case in Validation.from_config(config).cases})
+                   for case in validation.cases})
 
 
 def fill_params(config: dict) -> dict:

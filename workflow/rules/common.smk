@@ -5,16 +5,13 @@
 import sys
 
 from pidpipe.cases import CaseSpec
-from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
-                                  campaign_cases, campaign_packing_ids, case_movie_params,
-                                  case_packing_ids, ceq_table_path, dem_batch_case_ids,
-                                  dem_batch_fills, dem_batch_priority, environment_params,
-                                  fill_params, host_params, inspected_cases,
-                                  map_uncertainty_params, optimisation_params,
-                                  phase_figure_targets, pour_batch_fill_pattern,
-                                  pour_batch_replicates, scene_params, validation_packing_ids,
-                                  validation_params, verify_case_config, verify_params,
-                                  workflow_settings)
+from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_cases,
+                                  campaign_packing_ids, case_movie_params, case_packing_ids,
+                                  ceq_table_path, dem_batch_case_ids, dem_batch_fills,
+                                  dem_batch_priority, fill_params, host_params, inspected_cases,
+                                  map_uncertainty_params, phase_figure_targets,
+                                  pour_batch_fill_pattern, pour_batch_replicates, scene_params,
+                                  validation_packing_ids, verify_case_config, workflow_settings)
 from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.config.stages import stage_config
@@ -116,7 +113,7 @@ def get_dem_batch_workdirs(wildcards):
 
 def get_dem_batch_movies(wildcards):
     """Each case's movie settings ({} unless in inspection.movie_cases)."""
-    return [case_movie_params(config, case_id, MOVIE_CASES)
+    return [case_movie_params(SETTINGS.inspection, case_id, MOVIE_CASES)
             for case_id in get_dem_batch_case_ids(wildcards)]
 
 
@@ -177,20 +174,20 @@ def get_surrogate_allow_holes():
 
 def get_ceq_table():
     """The table the surrogate is fitted to: optimisation.external_ceq_table, else the campaign's."""
-    return ceq_table_path(config)
+    return ceq_table_path(SETTINGS.optimisation)
 
 
 def get_environments():
-    return environment_params(config)
+    return [environment.as_params() for environment in SETTINGS.environments]
 
 
 def get_budget():
-    return budget_params(config)
+    return SETTINGS.budget.as_params()
 
 
 def get_optimisation_params():
     """What the designs depend on: config optimisation without the table's path (an input)."""
-    return optimisation_params(config)
+    return SETTINGS.optimisation.as_params()
 
 
 def get_map_uncertainty_params():
@@ -223,22 +220,22 @@ def get_dem_check_records():
 
 def get_phase_figures():
     """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
-    return phase_figure_targets(config, PHASE_FIGURE_CASES)
+    return phase_figure_targets(SETTINGS.inspection, PHASE_FIGURE_CASES)
 
 
 def get_case_movie(wildcards):
     """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
-    return case_movie_params(config, get_case_id(wildcards), MOVIE_CASES)
+    return case_movie_params(SETTINGS.inspection, get_case_id(wildcards), MOVIE_CASES)
 
 
 def get_validation_cases():
     """The cases of `snakemake validate` (validation.cases)."""
-    return validation_params(config)
+    return SETTINGS.validation.as_params()
 
 
 def get_validation_packings():
     """The replicate-0 packing of every fill in validation.cases."""
-    return [f"results/packings/{packing_id}.json" for packing_id in validation_packing_ids(config)]
+    return [f"results/packings/{packing_id}.json" for packing_id in validation_packing_ids(SETTINGS.validation)]
 
 
 # The designs' check by DEM (workflow/rules/verify.smk): its cases follow from the designs
@@ -251,7 +248,7 @@ def get_fill_config():
 
 
 def get_verify_params():
-    return verify_params(config)
+    return SETTINGS.verify.as_params()
 
 
 def get_verify_case_config():
