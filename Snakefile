@@ -57,6 +57,16 @@ report: "workflow/report/workflow.rst"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/packing.smk"
+
+
+# The engines' own rules: the pours' batch with fidelity.pour_engine dem, and the shaking rule
+# of the configured engine (workflow/rules/simulate_liggghts.smk or simulate_dem.smk).
+for _pour_rules in get_pour_rules():
+
+    include: _pour_rules
+
+
+include: get_simulate_rules()
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/table.smk"
 include: "workflow/rules/surrogate.smk"

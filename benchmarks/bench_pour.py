@@ -84,7 +84,7 @@ def pour_stage(work: Path, per_packing: bool) -> dict:
     of all its processes, the jobs' summed wall and CPU, and the packings' bytes."""
     import shutil
 
-    rules = work / "workflow" / "rules" / "packing.smk"
+    rules = work / "workflow" / "rules" / "pour_dem.smk"
     order = ("ruleorder: pour_dem_packings > pour_packing", "ruleorder: pour_packing > pour_dem_packings")
     text = rules.read_text()
     if order[0] not in text and order[1] not in text:

@@ -30,7 +30,7 @@ from harness import SNAKEMAKE, measured, record, scratch_workflow
 
 #: The rules of the verify stage: a dry run that plans any other rule means an unfinished campaign.
 VERIFY_RULES = {"plan_verify", "pour_verify_packing", "check_verify_packings",
-                "simulate_verify_case", "verify"}
+                "simulate_verify_case", "compare_designs", "verify"}
 
 
 def planned_rules(output: str) -> set[str]:

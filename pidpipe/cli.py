@@ -109,7 +109,7 @@ def run_case_command(args: argparse.Namespace) -> int:
 
     config = load_config(args.config)
     if args.engine:
-        config["engine"] = args.engine
+        config = {**config, "engine": args.engine}
     _check_case_arguments(args, config)
     pouring, shaking = PourSettings.from_config(config), ShakeSettings.from_config(config)
     if args.pilot_only:
@@ -131,11 +131,11 @@ def run_case_command(args: argparse.Namespace) -> int:
              f"into {args.workdir / 'pool'})" if target else "") + " ...", file=sys.stderr, flush=True)
     movie, movie_dir = None, None
     if args.movie:
-        from pidpipe.config.inspection import movie_settings
+        from pidpipe.config.sections import Inspection
 
         if shaking.engine != "liggghts":
             raise PidpipeError("--movie is written from LIGGGHTS' dumps: it needs --engine liggghts")
-        movie = movie_settings(config)
+        movie = Inspection.from_config(config).movie
         movie_dir = args.movie_dir or args.workdir / case.case_id / "movie"
     record = measure_case(shaking, case, packings, args.workdir / case.case_id, pouring,
                           args.workdir / "pool", movie=movie, movie_dir=movie_dir)
@@ -194,28 +194,22 @@ def _regime_split(cell_regimes: list[str]) -> str:
 def check_config_command(args: argparse.Namespace) -> int:
     """Validate the config and print what the campaign will run."""
     from pidpipe.cases import grid_cases
-    from pidpipe.config import (
-        budget_spheres,
-        full_cell_spheres,
-        load_config,
-        panel_n_cells,
-        spheres_for_fill,
-    )
-
+    from pidpipe.config import load_config
     from pidpipe.config.schema import check_environments_in_reach
+    from pidpipe.config.sections import Settings
 
     config = load_config(args.config)
     check_environments_in_reach(config)
-    grid = config["grid"]
+    settings = Settings.from_config(config)
+    grid, fill, budget = settings.grid, settings.fill, settings.budget
     print(f"{args.config}: valid")
-    print(f"  {len(grid_cases(config))} cases: f = {grid['freq_hz']} Hz x G = {grid['accel_g']} g x "
-          f"r = {grid['fill_pct']} %")
-    print("  spheres per cell: " + ", ".join(f"{r:g} % -> {spheres_for_fill(config, r)}"
-                                              for r in grid["fill_pct"])
-          + f" (full cell = {full_cell_spheres(config)}, fill.definition = {config['fill']['definition']})")
-    print(f"  particle budget: {budget_spheres(config)} spheres for a panel of {panel_n_cells(config)} "
+    print(f"  {len(grid_cases(config))} cases: f = {list(grid.freq_hz)} Hz x G = {list(grid.accel_g)} g x "
+          f"r = {list(grid.fill_pct)} %")
+    print("  spheres per cell: " + ", ".join(f"{r:g} % -> {fill.spheres(r)}" for r in grid.fill_pct)
+          + f" (full cell = {fill.full_cell_spheres}, fill.definition = {fill.definition})")
+    print(f"  particle budget: {budget.n_spheres} spheres for a panel of {budget.max_cells} "
           f"cells; environments: "
-          + "; ".join(env["name"] for env in config["environments"]))
+          + "; ".join(env.name for env in settings.environments))
     return 0
 
 
@@ -228,34 +222,29 @@ def optimise_command(args: argparse.Namespace) -> int:
         write_results_csv,
         write_results_json,
     )
-    from pidpipe.design.optimisation import Budget
+    from pidpipe.config.sections import Settings
     from pidpipe.design.optimum import optimise_panel
     from pidpipe.design.surrogate import fit_surrogate
     from pidpipe.files import write_atomic
-    from pidpipe.steps.design import (
-        bootstrap_settings,
-        environment_objects,
-        search_settings,
-    )
-    from pidpipe.steps.params import budget_params
+    from pidpipe.steps.design import search_settings
 
-    config = load_config(args.config)
-    if not config["environments"]:
+    settings = Settings.from_config(load_config(args.config))
+    if not settings.environments:
         raise PidpipeError(f"{args.config}: no environments to optimise for (config key environments)")
-    table_path = args.table or Path(config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv")
+    optimisation = settings.optimisation
+    table_path = args.table or Path(optimisation.external_ceq_table or "results/ceq_table.csv")
     table = read_ceq_table(table_path)
-    surrogate = fit_surrogate(table, method=config["surrogate"]["method"], source=str(table_path),
-                              allow_holes=config["surrogate"]["allow_holes"])
-    bootstrap = dict(config["optimisation"]["bootstrap"])
+    surrogate = fit_surrogate(table, method=settings.surrogate.method, source=str(table_path),
+                              allow_holes=settings.surrogate.allow_holes)
+    bootstrap = optimisation.bootstrap
     if args.draws is not None:
         if args.draws < 0:
             raise PidpipeError(f"--draws {args.draws} is not allowed: it must be >= 0")
-        bootstrap["draws"] = args.draws
-    print(f"pidpipe: {surrogate.describe()}; {bootstrap['draws']} bootstrap draws ...",
+        bootstrap = replace(bootstrap, draws=args.draws)
+    print(f"pidpipe: {surrogate.describe()}; {bootstrap.draws} bootstrap draws ...",
           file=sys.stderr, flush=True)
-    optimum = optimise_panel(surrogate, environment_objects(config["environments"]),
-                             Budget(**budget_params(config)), search_settings(config["optimisation"]),
-                             bootstrap_settings(bootstrap))
+    optimum = optimise_panel(surrogate, list(settings.environments), settings.budget,
+                             search_settings(optimisation.as_params()), bootstrap)
     print(format_designs(optimum.results))
     if optimum.note:
         print(f"note: {optimum.note}")

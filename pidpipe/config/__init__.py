@@ -2,7 +2,10 @@
 
 :mod:`.schema` loads and validates (:func:`load_config`, :func:`validate_config`);
 :mod:`.settings` parses a validated config (or a stage's part of it) once into the frozen,
-typed settings the stages take; :mod:`.stages` cuts out the part each rule depends on;
+typed settings a pour or a shaking run takes; :mod:`.sections` types the campaign's other
+sections and parses the whole config once (:class:`~pidpipe.config.sections.Settings`);
+:mod:`.studies` types the studies' sections; :mod:`.stages` cuts out the part each rule
+depends on;
 :mod:`.derived` computes what follows from a validated config (pair properties, spheres per
 fill, the sphere budget).
 """

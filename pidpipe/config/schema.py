@@ -150,6 +150,8 @@ def _describe_schema_error(error: jsonschema.ValidationError) -> str:
         "minItems": lambda: f"must have at least {limit} item(s)",
         "maxItems": lambda: f"must have at most {limit} item(s)",
         "uniqueItems": lambda: "must not repeat a value",
+        "minLength": lambda: f"must have at least {limit} character(s)",
+        "maxLength": lambda: f"must have at most {limit} character(s)",
         "minProperties": lambda: f"must have at least {limit} entr{'y' if limit == 1 else 'ies'}",
         "pattern": lambda: f"must match {limit} (plain names and numbers only)",
     }

@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from pidpipe.config.derived import (
     budget_spheres,
     full_cell_spheres,
@@ -240,49 +242,95 @@ class Fill:
 
 @dataclass(frozen=True)
 class Budget:
-    """The particle budget of the optimisation, in spheres (``budget``).
+    """The particle budget of the optimisation and the cell counts (``budget``, ``panel``).
+
+    The one budget type: the optimiser (:mod:`pidpipe.design.optimisation`) takes it as it is
+    parsed here.
 
     Attributes
     ----------
     n_spheres : int
-        Spheres the mass limit allows, n_b.
-    full_cell_spheres : int
-        Spheres in a full cell (so a cell at fill r holds full_cell_spheres * r / 100).
+        n_b, spheres the panel may hold (the mass limit's, or ``budget.spheres``).
+    full_cell_spheres : float
+        Spheres in one cell at r = 100 % (:func:`pidpipe.config.full_cell_spheres`: 36 in the
+        source's definition, 21 in the default poured-capacity one).
     n_cells_coupon : int
-        Cells of the coupon whose C_eq the surrogate gives, N.
-    n_cells_panel : int
-        Cells of the structure that may be filled (``panel.n_cells``; the coupon's N if null).
+        N, cells of the coupon whose C_eq the surrogate predicts (C_eq / N is one cell's).
+    n_cells_panel : int or None
+        Cells of the structure that may be filled, the most n_c can be (``panel.n_cells``);
+        None: the coupon's N.
     """
 
     n_spheres: int
-    full_cell_spheres: int
+    full_cell_spheres: float
     n_cells_coupon: int
-    n_cells_panel: int
+    n_cells_panel: int | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.n_spheres >= 1 and self.full_cell_spheres > 0 and self.n_cells_coupon >= 1
+                and (self.n_cells_panel is None or self.n_cells_panel >= 1)):
+            raise ConfigError(f"config key budget: the budget needs n_spheres >= 1, "
+                              f"full_cell_spheres > 0, n_cells_coupon >= 1 and n_cells_panel "
+                              f">= 1; got {self}")
 
     @classmethod
     def from_config(cls, config: dict) -> "Budget":
         return cls(budget_spheres(config), full_cell_spheres(config),
                    int(config["geometry"]["coupon_n_cells"]), panel_n_cells(config))
 
+    @property
+    def max_cells(self) -> int:
+        """The most cells that may be filled: the panel's, or the coupon's N without a panel."""
+        return int(self.n_cells_panel if self.n_cells_panel is not None else self.n_cells_coupon)
+
+    def spheres_per_cell(self, fill_pct):
+        """Spheres in one cell at fill r (%): full_cell_spheres * r / 100 (not rounded); the
+        shape of ``fill_pct``."""
+        return self.full_cell_spheres * np.asarray(fill_pct, dtype=float) / 100.0
+
     def as_params(self) -> dict:
-        """The plain dict a rule's ``params`` carries."""
+        """The plain dict a rule's ``params`` carries (``Budget(**params)`` reads it back)."""
         return {"n_spheres": self.n_spheres, "full_cell_spheres": self.full_cell_spheres,
                 "n_cells_coupon": self.n_cells_coupon, "n_cells_panel": self.n_cells_panel}
 
 
 @dataclass(frozen=True)
 class Environment:
-    """An operating environment: a band of frequency (Hz) and of acceleration (g)."""
+    """An operating environment: a band of frequency (Hz) and of acceleration (g)
+    (an entry of ``environments``).
+
+    The band ends keep the numbers the config wrote (an integer stays one), so that a rule's
+    params and the results files that echo them read as before.
+    """
 
     name: str
     freq_hz: tuple[float, float]
     accel_g: tuple[float, float]
 
+    def __post_init__(self) -> None:
+        for key, unit in (("freq_hz", "Hz"), ("accel_g", "g")):
+            lo, hi = getattr(self, key)
+            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+                raise ConfigError(f"config key environments ({self.name!r}).{key} = [{lo}, {hi}] "
+                                  f"{unit} is not allowed: it must be finite with 0 < low <= high")
+
+    @classmethod
+    def from_entry(cls, entry: dict) -> "Environment":
+        """One entry of the config's ``environments`` (or of a rule's params)."""
+        return cls(str(entry["name"]), tuple(entry["freq_hz"]), tuple(entry["accel_g"]))
+
     @classmethod
     def list_from_config(cls, config: dict) -> list["Environment"]:
-        return [cls(str(e["name"]), (float(e["freq_hz"][0]), float(e["freq_hz"][1])),
-                    (float(e["accel_g"][0]), float(e["accel_g"][1])))
-                for e in config["environments"]]
+        return [cls.from_entry(e) for e in config["environments"]]
+
+    def in_floats(self) -> "Environment":
+        """The same environment with every band end a float."""
+        return Environment(self.name, (float(self.freq_hz[0]), float(self.freq_hz[1])),
+                           (float(self.accel_g[0]), float(self.accel_g[1])))
+
+    def as_params(self) -> dict:
+        """The plain, key-sorted dict a rule's ``params`` carries (:meth:`from_entry` reads it)."""
+        return {"accel_g": list(self.accel_g), "freq_hz": list(self.freq_hz), "name": self.name}
 
 
 @dataclass(frozen=True)
@@ -404,6 +452,8 @@ class HostSettings:
         ``equivalent`` or ``rest``: the host's state at t = 0.
     surrogate_draws, seed : int
     agreement_fraction : float
+    coupon_n_cells : int
+        N, the coupon's cells, whose C_eq / N is one cell's.
     """
 
     environment_index: int
@@ -423,6 +473,7 @@ class HostSettings:
     surrogate_draws: int
     seed: int
     agreement_fraction: float
+    coupon_n_cells: int
 
     @classmethod
     def from_config(cls, config: dict) -> "HostSettings":
@@ -433,7 +484,7 @@ class HostSettings:
             raise ConfigError(f"config key host.environment = {index} is not allowed: there are "
                               f"{len(environments)} environment(s), indices 0 .. "
                               f"{len(environments) - 1}")
-        environment = environments[index]
+        environment = environments[index].in_floats()
         mass = host["mass_kg"]
         natural = host["natural_freq_hz"]
         return cls(
@@ -448,7 +499,8 @@ class HostSettings:
             measured_cycles=int(host["measured_cycles"]),
             sem_block_cycles=int(host["sem_block_cycles"]), start=str(host["start"]),
             surrogate_draws=int(host["surrogate_draws"]), seed=int(host["seed"]),
-            agreement_fraction=float(host["agreement_fraction"]))
+            agreement_fraction=float(host["agreement_fraction"]),
+            coupon_n_cells=int(config["geometry"]["coupon_n_cells"]))
 
     @property
     def stiffness_n_m(self) -> float:

@@ -21,16 +21,15 @@ Without a finite, non-negative SEM for every fitted row there is nothing to prop
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
+from pidpipe.config.sections import Bootstrap
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
 from pidpipe.design.designs import Search, optimise_design, restart_points
 from pidpipe.design.optimisation import Budget, OptimisationResult
 from pidpipe.design.surrogate import Surrogate, cross_validate, refit_values
-from pidpipe.errors import ConfigError, PidpipeError, TableError
+from pidpipe.errors import PidpipeError, TableError
 
 #: Columns of the draws' table (:func:`bootstrap_designs`).
 DRAW_COLUMNS: tuple[str, ...] = ("draw", "environment", "design", "ok", "fill_pct", "n_cells",
@@ -39,20 +38,6 @@ DRAW_COLUMNS: tuple[str, ...] = ("draw", "environment", "design", "ok", "fill_pc
 
 #: A draw's optimum farther than this (scaled variables) from every main local optimum is "elsewhere".
 WIN_TOLERANCE = 0.1
-
-
-@dataclass(frozen=True)
-class Bootstrap:
-    """Settings of the bootstrap (config ``optimisation.bootstrap``)."""
-
-    draws: int = 200
-    starts: int = 2
-    seed: int = 11
-    confidence: float = 0.95
-
-    def __post_init__(self) -> None:
-        if self.draws < 0 or self.starts < 0 or not 0 < self.confidence < 1:
-            raise ConfigError(f"bootstrap needs draws >= 0, starts >= 0 and 0 < confidence < 1; got {self}")
 
 
 def has_sem(surrogate: Surrogate) -> bool:

@@ -44,6 +44,8 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import qmc
 
+# The budget and the environment are the config's own types (one definition each).
+from pidpipe.config.settings import Budget, Environment  # noqa: F401
 from pidpipe.errors import ConfigError, DomainError, PidpipeError
 
 #: Order of the optimisation variables.
@@ -68,60 +70,6 @@ class CeqModel(Protocol):
     domain: dict[str, tuple[float, float]]
 
     def predict(self, freq_hz, accel_g, fill_pct): ...
-
-
-@dataclass(frozen=True)
-class Environment:
-    """An operating environment: frequency band (Hz) and base-acceleration band (g)."""
-
-    name: str
-    freq_hz: tuple[float, float]
-    accel_g: tuple[float, float]
-
-    def __post_init__(self) -> None:
-        for key, unit in (("freq_hz", "Hz"), ("accel_g", "g")):
-            lo, hi = getattr(self, key)
-            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
-                raise ConfigError(f"environment {self.name!r}: {key} band [{lo}, {hi}] {unit} "
-                                  f"must be finite with 0 < low <= high")
-
-
-@dataclass(frozen=True)
-class Budget:
-    """The particle budget and the cell counts.
-
-    Attributes
-    ----------
-    n_spheres : int
-        n_b, spheres available for the panel.
-    full_cell_spheres : float
-        Spheres in one cell at r = 100 % (``pidpipe.config.full_cell_spheres``: 36 in the
-        source's definition, 21 in the default poured-capacity one).
-    n_cells_coupon : int
-        N, cells of the coupon whose C_eq the surrogate predicts (C_eq / N is one cell's).
-    n_cells_panel : int or None
-        The cells of the structure that may be filled, the most n_c can be; None: the coupon's N.
-    """
-
-    n_spheres: int
-    full_cell_spheres: float
-    n_cells_coupon: int
-    n_cells_panel: int | None = None
-
-    def __post_init__(self) -> None:
-        if not (self.n_spheres >= 1 and self.full_cell_spheres > 0 and self.n_cells_coupon >= 1
-                and (self.n_cells_panel is None or self.n_cells_panel >= 1)):
-            raise ConfigError(f"budget needs n_spheres >= 1, full_cell_spheres > 0, "
-                              f"n_cells_coupon >= 1 and n_cells_panel >= 1; got {self}")
-
-    @property
-    def max_cells(self) -> int:
-        """The most cells that may be filled: the panel's, or the coupon's N without a panel."""
-        return int(self.n_cells_panel if self.n_cells_panel is not None else self.n_cells_coupon)
-
-    def spheres_per_cell(self, fill_pct):
-        """Spheres in one cell at fill r (%): full_cell_spheres * r / 100 (not rounded)."""
-        return self.full_cell_spheres * np.asarray(fill_pct, dtype=float) / 100.0
 
 
 @dataclass

@@ -19,18 +19,9 @@ import pandas as pd
 from pidpipe.config.settings import HostSettings, PourSettings
 from pidpipe.errors import ConfigError
 from pidpipe.files import write_atomic
+from pidpipe.steps.params import host_params  # noqa: F401  (the host rule's params)
 
 logger = logging.getLogger("pidpipe.campaign")
-
-
-def host_params(config: dict) -> dict:
-    """The part of a validated config the host check depends on: a packing's, the geometry and
-    the panel (the host's default mass), the environments and ``host``."""
-    from pidpipe.config.stages import stage_config
-
-    return {**stage_config(config, "packing"), "geometry": dict(config["geometry"]),
-            "panel": dict(config["panel"]), "environments": list(config["environments"]),
-            "host": dict(config["host"])}
 
 
 def chosen_design(results: list, settings: HostSettings):
@@ -83,7 +74,7 @@ def prepare_host(config: dict, surrogate_path: str, designs_path: str, folder: s
     load = HostLoad(n_cells=int(design.n_cells), spheres_per_cell=n_spheres,
                     fill_pct=100.0 * n_spheres / pour.fill.full_cell_spheres,
                     sphere_mass_kg=sphere_mass(particle.radius_m, particle.density_kg_m3),
-                    coupon_n_cells=int(config["geometry"]["coupon_n_cells"]))
+                    coupon_n_cells=settings.coupon_n_cells)
     surrogate = load_surrogate(surrogate_path)
     draws = []
     if settings.surrogate_draws and has_sem(surrogate):

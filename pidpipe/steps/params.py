@@ -11,7 +11,8 @@ from pathlib import Path
 from pidpipe.cases import NUMBER_PATTERN, CaseSpec, grid_cases
 from pidpipe.config import validate_config
 from pidpipe.config.schema import check_environments_in_reach
-from pidpipe.config.settings import Budget, VerifySettings
+from pidpipe.config.sections import Grid, Inspection, Optimisation, Settings, Validation
+from pidpipe.config.settings import Budget, Environment, Sampling, VerifySettings
 from pidpipe.config.stages import sorted_keys, stage_config
 from pidpipe.errors import ConfigError
 
@@ -36,11 +37,16 @@ def workflow_config(raw: dict) -> dict:
     """
     config = validate_config(raw)
     check_environments_in_reach(config)
-    external = config["optimisation"]["external_ceq_table"]
+    external = Optimisation.from_config(config).external_ceq_table
     if external is not None and not Path(external).is_file():
         raise ConfigError(f"config key optimisation.external_ceq_table = {external!r} is not allowed: "
                           f"no such file (relative paths start at {Path.cwd()})")
     return config
+
+
+def workflow_settings(config: dict) -> Settings:
+    """Every section of the workflow's validated config, parsed once (:class:`Settings`)."""
+    return Settings.from_config(config)
 
 
 def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
@@ -48,18 +54,74 @@ def inspected_cases(config: dict, key: str) -> tuple[list[str], list[str]]:
     cases of the campaign, and those that are not (ignored, so that a grid cut down for a quick
     run keeps working; the workflow prints them)."""
     known = {case.case_id for case in campaign_cases(config)}
-    listed = config["inspection"][key]
+    listed = getattr(Inspection.from_config(config), key)
     return ([c for c in listed if c in known], [c for c in listed if c not in known])
+
+
+def case_movie_params(inspection: Inspection, case_id: str, movie_cases: list[str]) -> dict:
+    """A shaking job's movie settings: ``{}`` unless ``case_id`` is one of ``movie_cases``
+    (:func:`inspected_cases`), else the frames per cycle, the cycles and the movie's folder."""
+    if case_id not in movie_cases:
+        return {}
+    movie = inspection.movie
+    return {"frames_per_cycle": movie.frames_per_cycle, "cycles": movie.cycles,
+            "directory": f"results/movies/{case_id}"}
+
+
+def phase_figure_targets(inspection: Inspection, phase_figure_cases: list[str]) -> list[str]:
+    """The phase-resolved figures of the report's gallery; none when the motion is not sampled."""
+    if inspection.motion is None:
+        return []
+    return [f"results/figures/phase/{case_id}.png" for case_id in phase_figure_cases]
+
+
+def ceq_table_path(optimisation: Optimisation) -> str:
+    """The table the surrogate is fitted to: ``optimisation.external_ceq_table``, else the
+    campaign's ``results/ceq_table.csv``."""
+    return optimisation.external_ceq_table or "results/ceq_table.csv"
+
+
+def validation_params(config: dict) -> list[dict]:
+    """The cases of ``validate_chosen`` (``validation.cases``) as its params carry them."""
+    return Validation.from_config(config).as_params()
+
+
+def validation_packing_ids(validation: Validation) -> list[str]:
+    """The replicate-0 packing of every fill in ``validation.cases``, sorted."""
+    return sorted({CaseSpec(1.0, 1.0, float(case.fill_pct)).packing_id
+                   for case in validation.cases})
+
+
+def fill_params(config: dict) -> dict:
+    """The config's ``fill`` section, key-sorted (what the verify plan's spheres depend on)."""
+    return sorted_keys(config["fill"])
+
+
+def scene_params(config: dict) -> dict:
+    """What the scene study depends on: a packing's and a case's part of the config, and
+    ``scene``."""
+    packing = stage_config(config, "packing")
+    case = stage_config(config, "case")
+    return {**packing, **case, "fidelity": {**packing["fidelity"], **case["fidelity"]},
+            "scene": config["scene"]}
+
+
+def host_params(config: dict) -> dict:
+    """What the host check depends on: a packing's part of the config, the geometry and the
+    panel (the host's default mass), the environments and ``host``."""
+    return {**stage_config(config, "packing"), "geometry": dict(config["geometry"]),
+            "panel": dict(config["panel"]), "environments": list(config["environments"]),
+            "host": dict(config["host"])}
 
 
 def campaign_cases(config: dict) -> list[CaseSpec]:
     """Every case of the campaign: the grid times ``grid.replicates`` runs."""
-    return grid_cases(config, replicates=int(config["grid"].get("replicates", 1)))
+    return grid_cases(config, replicates=Grid.from_config(config).replicates)
 
 
 def case_packing_ids(config: dict, case: CaseSpec) -> list[str]:
     """The packings a case shakes: one per cell of its run (``fidelity.cells_per_run``)."""
-    return case.packing_ids(int(config["fidelity"]["cells_per_run"]))
+    return case.packing_ids(Sampling.from_config(config).cells_per_run)
 
 
 def campaign_packing_ids(config: dict) -> list[str]:
@@ -68,32 +130,18 @@ def campaign_packing_ids(config: dict) -> list[str]:
                    for packing_id in case_packing_ids(config, case)})
 
 
-#: A wildcard constraint that matches nothing: a rule with it never runs.
-NEVER_MATCHES = r"(?!)"
-
-
 def dem_batch_fills(config: dict) -> list[str]:
     """The fills (as case ids write them) that one ``simulate_dem_cases`` job shakes: the grid's."""
     from pidpipe.cases import format_number
 
-    return [format_number(float(fill)) for fill in sorted(config["grid"]["fill_pct"])]
+    return [format_number(float(fill)) for fill in sorted(Grid.from_config(config).fill_pct)]
 
 
-def dem_batch_constraint(config: dict) -> str:
-    """Wildcard constraint of ``simulate_dem_cases``' frequency: any number with ``engine: dem``;
-    with LIGGGHTS one that matches nothing, so that every case is a ``simulate_case`` job of its
-    own there (LIGGGHTS' start-up is small beside its runs; a job per case keeps them parallel)."""
-    return WILDCARD_NUMBER if config["engine"] == "dem" else NEVER_MATCHES
-
-
-def pour_batch_constraint(config: dict) -> str:
-    """Wildcard constraint of ``pour_dem_packings``' fill: the grid's fills with
-    ``fidelity.pour_engine: dem``; with LIGGGHTS one that matches nothing, so that every packing
-    is a ``pour_packing`` job of its own (each LIGGGHTS pour is a process of its own anyway)."""
+def pour_batch_fill_pattern(config: dict) -> str:
+    """Wildcard constraint of ``pour_dem_packings``' fill: the grid's fills (as case ids write
+    them). Other fills (``validation.cases``, ``fidelity_study``) are poured one packing a job."""
     import re
 
-    if config["fidelity"]["pour_engine"] != "dem":
-        return NEVER_MATCHES
     return "(?:" + "|".join(re.escape(fill) for fill in dem_batch_fills(config)) + ")"
 
 
@@ -142,12 +190,12 @@ def budget_params(config: dict) -> dict:
 
 def environment_params(config: dict) -> list[dict]:
     """The operating environments as plain, key-sorted dicts."""
-    return sorted_keys(config["environments"])
+    return [environment.as_params() for environment in Environment.list_from_config(config)]
 
 
 def optimisation_params(config: dict) -> dict:
     """The optimisation section without ``external_ceq_table`` (the table is the rule's input)."""
-    return sorted_keys({k: v for k, v in config["optimisation"].items() if k != "external_ceq_table"})
+    return Optimisation.from_config(config).as_params()
 
 
 #: The maps' uncertainty panels use at most this many of the bootstrap's draws (a standard
@@ -158,8 +206,8 @@ MAP_DRAWS = 50
 def map_uncertainty_params(config: dict) -> dict:
     """Draws and seed of the maps' bootstrap spread: the first (at most :data:`MAP_DRAWS`) of
     the optimum's draws, which the same seed redraws identically."""
-    bootstrap = config["optimisation"]["bootstrap"]
-    return {"draws": min(int(bootstrap["draws"]), MAP_DRAWS), "seed": int(bootstrap["seed"])}
+    bootstrap = Optimisation.from_config(config).bootstrap
+    return {"draws": min(bootstrap.draws, MAP_DRAWS), "seed": bootstrap.seed}
 
 
 def verify_params(config: dict) -> dict:

@@ -31,13 +31,11 @@ from pidpipe.cases import CaseSpec
 from pidpipe.cell.scene import CellScene
 from pidpipe.config import validate_config
 from pidpipe.config.settings import ShakeSettings
+from pidpipe.config.studies import REFERENCE, FidelityStudySettings
 from pidpipe.errors import ConfigError
 from pidpipe.measurement.case_record import CaseRecord
 
 logger = logging.getLogger("pidpipe.studies.fidelity")
-
-#: Name of the reference setting (reserved: no variant may take it).
-REFERENCE = "reference"
 
 #: Columns of the study's table (results/fidelity/fidelity.csv), in order.
 TABLE_COLUMNS: tuple[str, ...] = (
@@ -111,15 +109,8 @@ def study_cases(config: dict) -> list[CaseSpec]:
     ConfigError
         A case is listed twice.
     """
-    cases, seen = [], set()
-    for index, item in enumerate(config["fidelity_study"]["cases"]):
-        case = CaseSpec(float(item["freq_hz"]), float(item["accel_g"]), float(item["fill_pct"]))
-        if case.case_id in seen:
-            raise ConfigError(f"config key fidelity_study.cases[{index}] = {item!r} is not allowed: "
-                              "this case is listed twice")
-        seen.add(case.case_id)
-        cases.append(case)
-    return cases
+    study = FidelityStudySettings.from_config(config)
+    return [CaseSpec(float(c.freq_hz), float(c.accel_g), float(c.fill_pct)) for c in study.cases]
 
 
 def study_variants(config: dict) -> list[Variant]:
@@ -130,29 +121,15 @@ def study_variants(config: dict) -> list[Variant]:
     ConfigError
         A variant is named ``reference``, two share a name, or ``baseline`` names none of them.
     """
-    study = config["fidelity_study"]
-    variants = [Variant(REFERENCE, "reference", False, dict(study["reference"]))]
-    for index, item in enumerate(study["variants"]):
-        name = item["name"]
-        if name in {v.name for v in variants}:
-            why = "reserved for the reference" if name == REFERENCE else "another variant has it"
-            raise ConfigError(f"config key fidelity_study.variants[{index}].name = {name!r} is not "
-                              f"allowed: {why}")
-        variants.append(Variant(name, item.get("label") or name, bool(item.get("changes_physics")),
-                                dict(item.get("fidelity") or {})))
-    names = [v.name for v in variants[1:]]
-    if study["baseline"] not in names:
-        raise ConfigError(f"config key fidelity_study.baseline = {study['baseline']!r} is not "
-                          f"allowed: it must name one of the variants ({', '.join(names)})")
-    return variants
+    study = FidelityStudySettings.from_config(config)
+    return [Variant(REFERENCE, "reference", False, dict(study.reference))] + [
+        Variant(v.name, v.label or v.name, v.changes_physics, dict(v.fidelity or {}))
+        for v in study.variants]
 
 
 def _where(variant: Variant, config: dict) -> str:
     """The config key that holds a variant's overrides."""
-    if variant.name == REFERENCE:
-        return "fidelity_study.reference"
-    names = [item["name"] for item in config["fidelity_study"]["variants"]]
-    return f"fidelity_study.variants[{names.index(variant.name)}].fidelity"
+    return FidelityStudySettings.from_config(config).key_of(variant.name)
 
 
 def variant_config(config: dict, variant: Variant) -> dict:
@@ -245,9 +222,8 @@ def plan_study(config: dict) -> StudyPlan:
     cases = study_cases(config)
     variants = study_variants(config)
     configs = {v.name: stage_config(variant_config(config, v), "case") for v in variants}
-    study = config["fidelity_study"]
-    return StudyPlan(cases, variants, configs, study["baseline"],
-                     float(study["error_target_fraction"]))
+    study = FidelityStudySettings.from_config(config)
+    return StudyPlan(cases, variants, configs, study.baseline, study.error_target_fraction)
 
 
 def planned_steps(settings: ShakeSettings, case: CaseSpec) -> int:

@@ -29,6 +29,7 @@ from pidpipe.cell.packing import Packing
 from pidpipe.cell.patch import coupon_centres, ring_centres
 from pidpipe.cell.scene import CellScene
 from pidpipe.config.settings import PourSettings, ShakeSettings
+from pidpipe.config.studies import SceneSettings
 from pidpipe.liggghts.patch_run import run_patch
 from pidpipe.studies.scene_stats import (
     packing_scatter,
@@ -323,7 +324,7 @@ def usable_packings(packings: list[Packing]) -> tuple[list[Packing], list[tuple[
 
 def write_scene_study(config: dict, table_path: str | Path, comparisons_path: str | Path,
                       folder: str | Path, workers: int = 1, from_records: bool = False) -> dict:
-    """The whole study of ``config["scene"]``: pour (or reuse) the packings, run every case's
+    """The whole study of the config's ``scene`` section: pour (or reuse) the packings, run every case's
     scenes, write the scene table and the comparisons as CSV.
 
     Parameters
@@ -351,28 +352,28 @@ def write_scene_study(config: dict, table_path: str | Path, comparisons_path: st
 
     from pidpipe.dem.pouring import replicate_packings
 
-    settings = config["scene"]
+    settings = SceneSettings.from_config(config)
     shaking, pouring = ShakeSettings.from_config(config), PourSettings.from_config(config)
-    coupon = (int(settings["coupon_columns"]), int(settings["coupon_rows"]))
-    n_packings = max(int(settings["singles"]), coupon[0] * coupon[1])
+    coupon = (settings.coupon_columns, settings.coupon_rows)
+    n_packings = max(settings.singles, settings.coupon_cells)
     packings, refused, pour_cpu = [], [], {}
     while len(packings) < n_packings:
         # A pour the campaign would refuse (not settled, or above the lid) is left out and the
         # next replicate takes its place.
-        poured, pour_cpu = replicate_packings(pouring, float(settings["fill_pct"]),
+        poured, pour_cpu = replicate_packings(pouring, settings.fill_pct,
                                               n_packings + len(refused), Path(folder) / "packings",
                                               workers=workers)
         packings, refused = usable_packings(poured)
     rows, compared, scatter = [], [], []
-    for case in settings["cases"]:
+    for case in settings.cases:
         if from_records:
-            result = load_scene_study(shaking.sampling.sem_block_cycles, int(settings["singles"]),
-                                      float(case["freq_hz"]), float(case["accel_g"]), folder)
+            result = load_scene_study(shaking.sampling.sem_block_cycles, settings.singles,
+                                      float(case.freq_hz), float(case.accel_g), folder)
         else:
-            result = run_scene_study(shaking, float(case["freq_hz"]), float(case["accel_g"]),
-                                     packings, folder, singles=int(settings["singles"]),
+            result = run_scene_study(shaking, float(case.freq_hz), float(case.accel_g),
+                                     packings, folder, singles=settings.singles,
                                      coupon=coupon,
-                                     coupon_cpu_limit_s=float(settings["coupon_cpu_limit_s"]))
+                                     coupon_cpu_limit_s=settings.coupon_cpu_limit_s)
         rows += scene_rows(result, shaking.coupon_n_cells)
         compared += comparison_rows(result)
         scatter.append(scatter_row(result))

@@ -154,7 +154,7 @@ def test_validate_checks_every_case_with_the_dem_on_the_campaigns_packings(campa
     """`snakemake validate` reuses the LIGGGHTS records (no LIGGGHTS job runs) and shakes every
     case in the compiled DEM; grid.csv has one row a case with both C_eq and z_combined."""
     dry = planned_jobs(snakemake(campaign_dir, "validate", "--dry-run").stdout)
-    assert dry == {"validate_case": 8, "validate": 1}
+    assert dry == {"validate_case": 8, "collect_grid_check": 1, "validate": 1}
     run = snakemake(campaign_dir, "validate")
     assert run.returncode == 0, run.stdout[-3000:]
     grid = pd.read_csv(campaign_dir / "results" / "validation" / "grid.csv")

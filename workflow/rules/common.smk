@@ -1,23 +1,29 @@
-# The grid, wildcard constraints and the get_* helpers that the rules use. No rule lives here.
+# The grid, wildcard constraints, the settings and the get_* helpers that the rules use. No rule
+# lives here. The config is parsed once (SETTINGS, pidpipe.config.sections.Settings); the rules'
+# params are plain values built by pidpipe.steps.params, the same as the finished jobs recorded.
 
 import sys
 
 from pidpipe.cases import CaseSpec
-from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, budget_params,
-                                  campaign_cases, campaign_packing_ids, case_packing_ids,
-                                  dem_batch_case_ids, dem_batch_constraint, dem_batch_fills,
-                                  dem_batch_priority,
-                                  pour_batch_constraint, pour_batch_replicates,
-                                  environment_params, inspected_cases, map_uncertainty_params,
-                                  optimisation_params, verify_case_config, verify_params)
+from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_cases,
+                                  campaign_packing_ids, case_movie_params, case_packing_ids,
+                                  ceq_table_path, dem_batch_case_ids, dem_batch_fills,
+                                  dem_batch_priority, fill_params, host_params, inspected_cases,
+                                  map_uncertainty_params, phase_figure_targets,
+                                  pour_batch_fill_pattern, pour_batch_replicates, scene_params,
+                                  validation_packing_ids, verify_case_config, workflow_settings)
 from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
-from pidpipe.config.stages import sorted_keys, stage_config
+from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
 
 
+try:
+    SETTINGS = workflow_settings(config)
+except ConfigError as error:
+    sys.exit(f"pidpipe: invalid config: {error}")
 CASES = campaign_cases(config)
 PACKING_IDS = campaign_packing_ids(config)
 PHASE_FIGURE_CASES, _ignored_figures = inspected_cases(config, "phase_figure_cases")
@@ -27,9 +33,10 @@ for _key, _ignored in (("phase_figure_cases", _ignored_figures), ("movie_cases",
         print(f"pidpipe: inspection.{_key}: not cases of this campaign, ignored: "
               + ", ".join(_ignored), file=sys.stderr)
 
-# Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes them.
-CASE_PATTERN = "f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}"
+# Case ids are f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}, numbers as pidpipe.cases writes
+# them; a packing's id is the case id's fill and replicate. Every rule spells its paths with these.
 PACKING_PATTERN = "r{fill}pct_rep{replicate}"
+CASE_PATTERN = "f{freq}Hz_G{accel}_" + PACKING_PATTERN
 
 
 wildcard_constraints:
@@ -62,7 +69,7 @@ def get_case_packings(wildcards):
 
 
 def get_cells_per_run():
-    return int(config["fidelity"]["cells_per_run"])
+    return SETTINGS.sampling.cells_per_run
 
 
 def get_case_id(wildcards):
@@ -77,10 +84,10 @@ def get_case_runtime_min(wildcards, attempt):
     return cluster_resources.case_runtime_min(settings, case, attempt)
 
 
-# The DEM's cases of one frequency, acceleration and replicate share a job (simulate_dem_cases):
-# its start-up costs more than a short DEM case. With LIGGGHTS its pattern matches nothing.
+# engine: dem: the DEM's cases of one frequency, acceleration and replicate share a job
+# (simulate_dem_cases, workflow/rules/simulate_dem.smk): its start-up costs more than a short
+# DEM case.
 DEM_BATCH_FILLS = dem_batch_fills(config)
-DEM_BATCH_FREQ = dem_batch_constraint(config)
 
 
 def get_dem_batch_case_ids(wildcards):
@@ -106,8 +113,8 @@ def get_dem_batch_workdirs(wildcards):
 
 def get_dem_batch_movies(wildcards):
     """Each case's movie settings ({} unless in inspection.movie_cases)."""
-    return [get_case_movie({"freq": wildcards.freq, "accel": wildcards.accel, "fill": fill,
-                            "replicate": wildcards.replicate}) for fill in DEM_BATCH_FILLS]
+    return [case_movie_params(SETTINGS.inspection, case_id, MOVIE_CASES)
+            for case_id in get_dem_batch_case_ids(wildcards)]
 
 
 def get_dem_batch_runtime_min(wildcards, attempt):
@@ -122,16 +129,29 @@ def get_dem_batch_priority(wildcards):
     return dem_batch_priority(config, get_dem_batch_case_ids(wildcards))
 
 
-# The DEM's pours of one grid fill share a job (pour_dem_packings): one process's start-up, and
-# one batched pour. With the LIGGGHTS pour its pattern matches nothing (a job per packing).
-POUR_BATCH_FILL = pour_batch_constraint(config)
+# fidelity.pour_engine: dem: the DEM's pours of one grid fill share a job (pour_dem_packings,
+# workflow/rules/pour_dem.smk): one process's start-up, and one batched pour.
+POUR_BATCH_FILL = pour_batch_fill_pattern(config)
 POUR_BATCH_REPLICATES = pour_batch_replicates(config)
 
 
 def get_pour_batch_workdirs(wildcards):
     """The engine folder of each packing of a pour_dem_packings job (unused by the DEM)."""
-    return [f"results/work/packings/r{wildcards.fill}pct_rep{replicate}"
+    return ["results/work/packings/" + PACKING_PATTERN.format(fill=wildcards.fill,
+                                                              replicate=replicate)
             for replicate in POUR_BATCH_REPLICATES]
+
+
+def get_simulate_rules():
+    """The rule file that shakes the campaign's cases with the configured engine
+    (workflow/rules/simulate_liggghts.smk or simulate_dem.smk)."""
+    return f"workflow/rules/simulate_{SETTINGS.engine}.smk"
+
+
+def get_pour_rules():
+    """The rule files that pour the campaign's packings besides pour_packing (one a job, every
+    engine): with fidelity.pour_engine dem, workflow/rules/pour_dem.smk batches each grid fill."""
+    return ["workflow/rules/pour_dem.smk"] if SETTINGS.pouring.engine == "dem" else []
 
 
 def get_packing_config():
@@ -145,29 +165,29 @@ def get_case_config():
 
 
 def get_surrogate_method():
-    return config["surrogate"]["method"]
+    return SETTINGS.surrogate.method
 
 
 def get_surrogate_allow_holes():
-    return config["surrogate"]["allow_holes"]
+    return SETTINGS.surrogate.allow_holes
 
 
 def get_ceq_table():
     """The table the surrogate is fitted to: optimisation.external_ceq_table, else the campaign's."""
-    return config["optimisation"]["external_ceq_table"] or "results/ceq_table.csv"
+    return ceq_table_path(SETTINGS.optimisation)
 
 
 def get_environments():
-    return environment_params(config)
+    return [environment.as_params() for environment in SETTINGS.environments]
 
 
 def get_budget():
-    return budget_params(config)
+    return SETTINGS.budget.as_params()
 
 
 def get_optimisation_params():
     """What the designs depend on: config optimisation without the table's path (an input)."""
-    return optimisation_params(config)
+    return SETTINGS.optimisation.as_params()
 
 
 def get_map_uncertainty_params():
@@ -188,7 +208,7 @@ def get_final_targets():
         "results/figures/convergence.png",
         "results/figures/optimum_spread.png",
     ]
-    if config["optimisation"]["external_ceq_table"] is None:
+    if SETTINGS.optimisation.external_ceq_table is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets
 
@@ -200,31 +220,22 @@ def get_dem_check_records():
 
 def get_phase_figures():
     """The phase-resolved figures of the report's gallery (inspection.phase_figure_cases)."""
-    if config["inspection"]["phase_windows_per_cycle"] == 0:
-        return []
-    return [f"results/figures/phase/{case_id}.png" for case_id in PHASE_FIGURE_CASES]
+    return phase_figure_targets(SETTINGS.inspection, PHASE_FIGURE_CASES)
 
 
 def get_case_movie(wildcards):
     """The movie settings of a simulate_case job: {} unless its case is in inspection.movie_cases."""
-    case_id = get_case_id(wildcards)
-    if case_id not in MOVIE_CASES:
-        return {}
-    return {"frames_per_cycle": config["inspection"]["movie_frames_per_cycle"],
-            "cycles": config["inspection"]["movie_cycles"],
-            "directory": f"results/movies/{case_id}"}
+    return case_movie_params(SETTINGS.inspection, get_case_id(wildcards), MOVIE_CASES)
 
 
 def get_validation_cases():
     """The cases of `snakemake validate` (validation.cases)."""
-    return config["validation"]["cases"]
+    return SETTINGS.validation.as_params()
 
 
 def get_validation_packings():
     """The replicate-0 packing of every fill in validation.cases."""
-    fills = sorted({CaseSpec(1.0, 1.0, float(c["fill_pct"])).packing_id
-                    for c in config["validation"]["cases"]})
-    return [f"results/packings/{packing_id}.json" for packing_id in fills]
+    return [f"results/packings/{packing_id}.json" for packing_id in validation_packing_ids(SETTINGS.validation)]
 
 
 # The designs' check by DEM (workflow/rules/verify.smk): its cases follow from the designs
@@ -233,11 +244,11 @@ def get_validation_packings():
 
 def get_fill_config():
     """The config's fill section (spheres per full cell)."""
-    return sorted_keys(config["fill"])
+    return fill_params(config)
 
 
 def get_verify_params():
-    return verify_params(config)
+    return SETTINGS.verify.as_params()
 
 
 def get_verify_case_config():
@@ -314,7 +325,12 @@ def get_fidelity_variants():
 
 def get_scene_config():
     """The config values the scene study depends on: a packing's and a case's, and scene."""
-    packing = stage_config(config, "packing")
-    case = stage_config(config, "case")
-    return {**packing, **case, "fidelity": {**packing["fidelity"], **case["fidelity"]},
-            "scene": config["scene"]}
+    return scene_params(config)
+
+
+# The host-coupled check (workflow/rules/host.smk).
+
+
+def get_host_config():
+    """The config values the host check depends on (pidpipe.steps.params.host_params)."""
+    return host_params(config)

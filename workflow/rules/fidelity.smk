@@ -8,19 +8,19 @@
 
 rule simulate_fidelity_case:
     input:
-        packing="results/packings/r{fill}pct_rep{replicate}.json",
+        packing="results/packings/" + PACKING_PATTERN + ".json",
     output:
-        record="results/fidelity/cases/{variant}/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.json",
+        record="results/fidelity/cases/{variant}/" + CASE_PATTERN + ".json",
     params:
         config=get_fidelity_case_config,
         case_id=get_case_id,
-        workdir="results/work/fidelity/{variant}/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}",
+        workdir="results/work/fidelity/{variant}/" + CASE_PATTERN,
     wildcard_constraints:
         variant=r"[A-Za-z][A-Za-z0-9_]*",
     log:
-        "logs/simulate_fidelity_case/{variant}/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
+        "logs/simulate_fidelity_case/{variant}/" + CASE_PATTERN + ".log",
     benchmark:
-        "results/benchmarks/simulate_fidelity_case/{variant}/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.tsv"
+        "results/benchmarks/simulate_fidelity_case/{variant}/" + CASE_PATTERN + ".tsv"
     priority: get_fidelity_priority
     threads: 1
     script:
@@ -32,9 +32,9 @@ rule collect_fidelity_table:
         records=get_fidelity_records(),
     output:
         table=report("results/fidelity/fidelity.csv", caption="../report/fidelity_table.rst",
-                     category="5. Fidelity study"),
+                     category="7. Fidelity study"),
         summary=report("results/fidelity/fidelity_summary.csv",
-                       caption="../report/fidelity_summary.rst", category="5. Fidelity study"),
+                       caption="../report/fidelity_summary.rst", category="7. Fidelity study"),
     params:
         jobs=get_fidelity_jobs(),
         variants=get_fidelity_variants(),
@@ -52,7 +52,7 @@ rule plot_fidelity:
         summary="results/fidelity/fidelity_summary.csv",
     output:
         png=report("results/fidelity/fidelity.png", caption="../report/fidelity.rst",
-                   category="5. Fidelity study"),
+                   category="7. Fidelity study"),
         pdf="results/fidelity/fidelity.pdf",
     params:
         error_target=FIDELITY_STUDY.error_target,

@@ -61,16 +61,16 @@ rule plot_optimum_spread:
 
 rule plot_phase:
     input:
-        record="results/cases/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.json",
+        record="results/cases/" + CASE_PATTERN + ".json",
     output:
         png=report(
-            "results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.png",
+            "results/figures/phase/" + CASE_PATTERN + ".png",
             caption="../report/phase.rst",
             category="4. Inside the cases",
         ),
-        pdf="results/figures/phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.pdf",
+        pdf="results/figures/phase/" + CASE_PATTERN + ".pdf",
     log:
-        "logs/plot_phase/f{freq}Hz_G{accel}_r{fill}pct_rep{replicate}.log",
+        "logs/plot_phase/" + CASE_PATTERN + ".log",
     script:
         "../scripts/plot_phase.py"
 

@@ -5,22 +5,14 @@
 # One job pours the host's k packings (results/work/host/packings, reused) and runs every force
 # level x frequency, two at a time with --cores 2.
 
-from pidpipe.steps.host import host_params
-
-
-def get_host_config():
-    """The config values the host check depends on (pidpipe.steps.host.host_params)."""
-    return host_params(config)
-
-
 rule check_host:
     input:
         surrogate="results/surrogate.json",
         designs="results/optimum.json",
     output:
-        curves=report("results/host/curves.csv", caption="../report/host.rst", category="7. Host"),
+        curves=report("results/host/curves.csv", caption="../report/host.rst", category="9. Host"),
         summary=report("results/host/summary.csv", caption="../report/host.rst",
-                       category="7. Host"),
+                       category="9. Host"),
         meta="results/host/host.json",
     params:
         config=get_host_config(),
@@ -38,7 +30,7 @@ rule plot_host:
     input:
         curves="results/host/curves.csv",
     output:
-        png=report("results/host/host.png", caption="../report/host.rst", category="7. Host"),
+        png=report("results/host/host.png", caption="../report/host.rst", category="9. Host"),
     log:
         "logs/plot_host.log",
     script:

@@ -1,45 +1,21 @@
-# Stage 1: pour and settle one packing per fill level and replicate (fidelity.pour_engine), then check them all.
-# With the DEM pour the packings of one fill are one job (pour_dem_packings), with LIGGGHTS one job each.
+# Stage 1: pour and settle one packing per fill level and replicate (fidelity.pour_engine), then
+# check them all. pour_packing pours one packing a job with either engine; with the DEM pour the
+# Snakefile also includes pour_dem.smk, which pours each grid fill's packings in one job.
 
 
 rule pour_packing:
     output:
-        "results/packings/r{fill}pct_rep{replicate}.json",
+        "results/packings/" + PACKING_PATTERN + ".json",
     params:
         config=get_packing_config(),
-        workdir="results/work/packings/r{fill}pct_rep{replicate}",
+        workdir="results/work/packings/" + PACKING_PATTERN,
     log:
-        "logs/pour_packing/r{fill}pct_rep{replicate}.log",
+        "logs/pour_packing/" + PACKING_PATTERN + ".log",
     benchmark:
-        "results/benchmarks/pour_packing/r{fill}pct_rep{replicate}.tsv"
+        "results/benchmarks/pour_packing/" + PACKING_PATTERN + ".tsv"
     threads: 1
     script:
         "../scripts/pour_packing.py"
-
-
-# fidelity.pour_engine: dem only (POUR_BATCH_FILL matches nothing with LIGGGHTS): every packing
-# of one grid fill that the cases shake, poured in one job as one batch, each the packing that
-# pour_packing pours alone; outputs one file per packing, as pour_packing's.
-ruleorder: pour_dem_packings > pour_packing
-
-
-rule pour_dem_packings:
-    output:
-        packings=expand("results/packings/r{{fill}}pct_rep{replicate}.json",
-                        replicate=POUR_BATCH_REPLICATES),
-    wildcard_constraints:
-        fill=POUR_BATCH_FILL,
-    params:
-        config=get_packing_config(),
-        replicates=POUR_BATCH_REPLICATES,
-        workdirs=get_pour_batch_workdirs,
-    log:
-        "logs/pour_dem_packings/r{fill}pct.log",
-    benchmark:
-        "results/benchmarks/pour_dem_packings/r{fill}pct.tsv"
-    threads: 1
-    script:
-        "../scripts/pour_dem_packings.py"
 
 
 # Every packing must fit under the lid before any case is shaken; misfits are listed together.

@@ -10,9 +10,9 @@
 rule run_scene_study:
     output:
         table=report("results/scene/scene.csv", caption="../report/scene.rst",
-                     category="6. Scene"),
+                     category="8. Scene"),
         comparisons=report("results/scene/scene_comparisons.csv",
-                           caption="../report/scene_comparisons.rst", category="6. Scene"),
+                           caption="../report/scene_comparisons.rst", category="8. Scene"),
     params:
         config=get_scene_config(),
         folder="results/work/scene",
@@ -29,7 +29,7 @@ rule plot_scene:
     input:
         table="results/scene/scene.csv",
     output:
-        png=report("results/scene/scene.png", caption="../report/scene.rst", category="6. Scene"),
+        png=report("results/scene/scene.png", caption="../report/scene.rst", category="8. Scene"),
     log:
         "logs/plot_scene.log",
     script:

@@ -25,30 +25,30 @@ rule validate_case:
         "../scripts/check_case_with_dem.py"
 
 
-rule validate:
+rule collect_grid_check:
     input:
         liggghts=get_case_records(),
         dem=get_dem_check_records(),
     output:
         table=report("results/validation/grid.csv", caption="../report/grid_check.rst",
-                     category="4. Validation"),
+                     category="5. Validation"),
         plot=report("results/validation/grid.png", caption="../report/grid_check.rst",
-                    category="4. Validation"),
+                    category="5. Validation"),
     log:
         "logs/validate.log",
     script:
         "../scripts/collect_grid_check.py"
 
 
-rule validate_chosen:
+rule validate_against_dem:
     input:
         packings=get_validation_packings(),
         checked=ancient("results/packings/check.tsv"),
     output:
         table=report("results/validation/validation.csv", caption="../report/validation.rst",
-                     category="4. Validation"),
+                     category="5. Validation"),
         plot=report("results/validation/validation.png", caption="../report/validation.rst",
-                    category="4. Validation"),
+                    category="5. Validation"),
     params:
         config=get_case_config(),
         cases=get_validation_cases(),
@@ -59,3 +59,15 @@ rule validate_chosen:
         "results/benchmarks/validate_chosen.tsv"
     script:
         "../scripts/validate_against_dem.py"
+
+
+rule validate:
+    input:
+        "results/validation/grid.csv",
+        "results/validation/grid.png",
+
+
+rule validate_chosen:
+    input:
+        "results/validation/validation.csv",
+        "results/validation/validation.png",

@@ -24,14 +24,14 @@ checkpoint plan_verify:
 
 rule pour_verify_packing:
     output:
-        "results/verify/packings/r{fill}pct_rep{replicate}.json",
+        "results/verify/packings/" + PACKING_PATTERN + ".json",
     params:
         config=get_packing_config(),
-        workdir="results/work/verify/packings/r{fill}pct_rep{replicate}",
+        workdir="results/work/verify/packings/" + PACKING_PATTERN,
     log:
-        "logs/verify/pour_packing/r{fill}pct_rep{replicate}.log",
+        "logs/verify/pour_packing/" + PACKING_PATTERN + ".log",
     benchmark:
-        "results/benchmarks/verify/pour_packing/r{fill}pct_rep{replicate}.tsv"
+        "results/benchmarks/verify/pour_packing/" + PACKING_PATTERN + ".tsv"
     threads: 1
     script:
         "../scripts/pour_packing.py"
@@ -41,11 +41,11 @@ rule pour_verify_packing:
 # new plan adds checks for its new packings and leaves the cases already shaken alone.
 rule check_verify_packing:
     input:
-        "results/verify/packings/r{fill}pct_rep{replicate}.json",
+        "results/verify/packings/" + PACKING_PATTERN + ".json",
     output:
-        "results/verify/packings/r{fill}pct_rep{replicate}.check.tsv",
+        "results/verify/packings/" + PACKING_PATTERN + ".check.tsv",
     log:
-        "logs/verify/check_packing/r{fill}pct_rep{replicate}.log",
+        "logs/verify/check_packing/" + PACKING_PATTERN + ".log",
     script:
         "../scripts/check_verify_packing.py"
 
@@ -73,16 +73,16 @@ rule simulate_verify_case:
         "../scripts/simulate_case.py"
 
 
-rule verify:
+rule compare_designs:
     input:
         points="results/verify/points.csv",
         records=get_verify_records,
         surrogate="results/surrogate.json",
     output:
         table=report("results/verify.csv", caption="../report/verify.rst",
-                     category="5. Verification"),
+                     category="6. Verification"),
         plot=report("results/verify.png", caption="../report/verify.rst",
-                    category="5. Verification"),
+                    category="6. Verification"),
     params:
         verify=get_verify_params(),
         case_config=get_verify_case_config(),
@@ -90,3 +90,9 @@ rule verify:
         "logs/verify/verify.log",
     script:
         "../scripts/compare_designs.py"
+
+
+rule verify:
+    input:
+        "results/verify.csv",
+        "results/verify.png",
