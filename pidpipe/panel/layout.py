@@ -12,7 +12,8 @@ with <.>_k the mean over level k (``quantiles`` quantiles of its |phi|), M and o
 modal mass and frequency (:mod:`pidpipe.panel.loss`), s(r) the spheres per cell and J the
 design's functional: ``peak`` (G a variable within the band), ``band_mean`` (Gauss-Legendre in
 G) or ``worst_case`` (the minimum on a grid of G, in epigraph form). Starts: filling the levels
-from the antinode outwards at mid fill until the budget is spent, and ``starts`` seeded
+from the antinode outwards at mid fill (and at any further fills given, such as the coupon
+design's) until the budget is spent, and ``starts`` seeded
 Latin-hypercube points scaled onto the budget. The best end point is rounded to whole cells:
 level k fills round(x_k N_k) of its cells at r_k; cells are taken off
 the outermost filled level while the budget is exceeded. Within a level the cells are taken
@@ -193,7 +194,8 @@ class _RegionProblem:
 
 
 def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand, kind: str,
-                    n_spheres: float, starts: int = 6, seed: int = 17, maxiter: int = 200) -> LayoutResult:
+                    n_spheres: float, starts: int = 6, seed: int = 17, maxiter: int = 200,
+                    antinode_fills: tuple[float, ...] = ()) -> LayoutResult:
     """The optimised region layout of one design kind (module docstring).
 
     Parameters
@@ -209,12 +211,16 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
         The budget n_b.
     starts, seed : int
         Seeded Latin-hypercube starts besides the antinode-first one.
+    antinode_fills : tuple of float
+        Further antinode-first starts at these fills (%), e.g. the coupon designs' (the
+        ``source_antinode`` layouts), so that the search starts from them too.
     """
     if kind not in KINDS:
         raise ValueError(f"design kind {kind!r} is unknown; one of {', '.join(KINDS)}")
     problem = _RegionProblem(loss, predict, regions, band, kind, n_spheres)
     mid = 0.5 * (problem.r_lo + problem.r_hi)
-    x0s = [problem.pack(problem.antinode_first(mid), np.full(problem.k, mid), 1.0)]
+    x0s = [problem.pack(problem.antinode_first(r), np.full(problem.k, r), 1.0)
+           for r in (mid, *(float(np.clip(f, problem.r_lo, problem.r_hi)) for f in antinode_fills))]
     if starts:
         sample = qmc.LatinHypercube(d=2 * problem.k, rng=np.random.default_rng(seed)).random(starts)
         for row in sample:

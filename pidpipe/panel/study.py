@@ -124,7 +124,8 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                 source = sources[kind]
                 start = time.process_time()
                 best = optimise_layout(loss, model.predict, regions, band, kind, settings.n_spheres,
-                                       starts=settings.starts, seed=settings.seed)
+                                       starts=settings.starts, seed=settings.seed,
+                                       antinode_fills=(source.fill_pct,))
                 optimisation_s += time.process_time() - start
                 chosen = {"source_uniform": uniform_layout(len(centres), source.n_cells, source.fill_pct),
                           "source_antinode": antinode_layout(phi, source.n_cells, source.fill_pct),
