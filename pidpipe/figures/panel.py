@@ -23,26 +23,23 @@ def plot_panel_layouts(panels: list[dict], length_mm: float, width_mm: float) ->
 
     with matplotlib.rc_context(RC_PARAMS):
         n = max(len(panels), 1)
-        figure = Figure(figsize=(6.4, 3.2 * n), layout="constrained")
+        figure = Figure(figsize=(7.0, 3.4 * n), layout="constrained")
         axes = np.atleast_1d(figure.subplots(n, 1, squeeze=False)[:, 0])
         x = np.linspace(0.0, length_mm, 211)
         y = np.linspace(0.0, width_mm, 131)
         xx, yy = np.meshgrid(x, y)
-        fills = [p["fill_pct"] for p in panels if len(p["fill_pct"])]
-        fill_lo = min((float(np.min(f)) for f in fills), default=0.0)
-        fill_hi = max((float(np.max(f)) for f in fills), default=100.0)
         for ax, panel in zip(axes, panels):
             shade = ax.contourf(xx, yy, panel["shape"](xx, yy), levels=np.linspace(-1, 1, 21),
                                 cmap="RdBu_r")
             dots = ax.scatter(panel["x_mm"], panel["y_mm"], c=panel["fill_pct"], s=2.0,
-                              cmap="viridis", vmin=fill_lo, vmax=max(fill_hi, fill_lo + 1e-9),
+                              cmap="viridis", vmin=0.0, vmax=100.0,
                               linewidths=0)
             ax.set_aspect("equal")
             ax.set_xlim(0, length_mm)
             ax.set_ylim(0, width_mm)
             ax.set_xlabel("x along the ribbon L (mm)")
             ax.set_ylabel("y along W (mm)")
-            ax.set_title(panel["title"])
+            ax.set_title(panel["title"], fontsize=9)
             figure.colorbar(shade, ax=ax, label="mode shape w / w_antinode (m/m)", shrink=0.9)
             figure.colorbar(dots, ax=ax, label="fill r (%)", shrink=0.9)
         return figure

@@ -38,6 +38,9 @@ logger = logging.getLogger("pidpipe.campaign")
 
 #: Columns of results/panel/modes.csv.
 MODE_COLUMNS: tuple[str, ...] = ("mode_m", "mode_n", "freq_hz", "modal_mass_kg")
+#: Said in designs.csv where the band's lowest antinode G reaches the C_eq model's lowest G.
+FLOOR_NOTE = ("the band's lowest G at the antinode is at or below the C_eq model's lowest G: "
+              "cells below it count as C_eq = 0 (the spheres rest on the floor)")
 #: The layouts compared on every design, in table order.
 LAYOUTS: tuple[str, ...] = ("source_uniform", "source_antinode", "optimised")
 
@@ -168,7 +171,7 @@ def _evaluate(env, mode: Mode, kind: str, loss: ModalLoss, model: UncertainCeq, 
            "eta_band_mean": summary["band_mean"], "eta_band_worst": summary["worst_case"],
            "eta_band_best": summary["peak"], "worst_accel_g": summary["worst_accel_g"],
            "best_accel_g": summary["peak_accel_g"], "uncertainty": model.kind,
-           "note": ""}
+           "note": FLOOR_NOTE if band.low * np.abs(loss.phi).max() <= model.domain["accel_g"][0] else ""}
     if best is not None:
         row["n_starts"], row["n_converged"] = best.n_starts, best.n_converged
     forced = []

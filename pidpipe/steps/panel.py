@@ -49,7 +49,8 @@ def write_panel_study(study, folder: str | Path) -> list[Path]:
         mode, layout = entry["mode"], entry["layout"]
         xy = study.centres[layout.cells] * 1e3
         panels.append({"title": f"{entry['environment']}: mode ({mode.m}, {mode.n}) at "
-                                f"{mode.freq_hz:.0f} Hz, band_mean layout ({layout.cells.size} cells)",
+                                f"{mode.freq_hz:.0f} Hz\noptimised band_mean layout, "
+                                f"{layout.cells.size} filled cells",
                        "shape": lambda x, y, mode=mode: mode.shape(x * 1e-3, y * 1e-3),
                        "x_mm": xy[:, 0], "y_mm": xy[:, 1], "fill_pct": layout.fill_pct})
     figure = plot_panel_layouts(panels, settings.length_m * 1e3, settings.width_m * 1e3)
