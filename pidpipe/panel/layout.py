@@ -14,7 +14,9 @@ design's functional: ``peak`` (G a variable within the band), ``band_mean`` (Gau
 G) or ``worst_case`` (the minimum on a grid of G, in epigraph form). Starts: filling the levels
 from the antinode outwards at mid fill (and at any further fills given, such as the coupon
 design's) until the budget is spent, and ``starts`` seeded
-Latin-hypercube points scaled onto the budget. The best end point is rounded to whole cells:
+Latin-hypercube points scaled onto the budget. Every feasible end point (and every start) is
+rounded to whole cells and judged on all its cells (:func:`pidpipe.panel.loss.band_summary`:
+the peak as the band grid's best point); the best is the answer. Rounding to whole cells:
 level k fills round(x_k N_k) of its cells at r_k; cells are taken off
 the outermost filled level while the budget is exceeded. Within a level the cells are taken
 best first by their own contribution C_eq(f, G |phi_i|, r_k) phi_i^2 over the design's
@@ -35,7 +37,7 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import qmc
 
-from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss
+from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
 
 
 @dataclass(frozen=True)
@@ -228,7 +230,7 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
             r = problem.r_lo + rho * (problem.r_hi - problem.r_lo)
             x0s.append(problem.pack(problem.onto_budget(x, r), r, 0.5))
     problem.scale = max(max(problem.objective_value(z) for z in x0s), 1e-300)
-    best, converged = None, 0
+    candidates, converged = [], 0
     for z0 in x0s:
         if kind == "worst_case":
             z0 = z0.copy()
@@ -238,18 +240,20 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
                           options={"maxiter": maxiter, "ftol": 1e-9})
         feasible = problem.budget_margin(result.x) >= -1e-6
         converged += bool(result.success and feasible)
-        if not feasible:
-            continue
-        value = problem.objective_value(result.x)
-        if best is None or value > best[0]:
-            best = (value, result.x)
-    if best is None:
-        best = (problem.objective_value(x0s[0]), x0s[0])
-    value, z = best
+        candidates += [result.x] if feasible else []
+    # every feasible end point, and the starts themselves, rounded to whole cells and judged on
+    # all their cells (not the levels' quantiles): the best whole-cell layout is the answer
+    best = None
+    for z in candidates + x0s:
+        x, r = problem.unpack(z)
+        layout = whole_cell_layout(loss, regions, x, r, n_spheres, members=problem.ranked_members(z))
+        exact = band_summary(loss, predict, layout, band)[kind]
+        if best is None or exact > best[0]:
+            best = (exact, z, layout)
+    _, z, layout = best
     x, r = problem.unpack(z)
-    layout = whole_cell_layout(loss, regions, x, r, n_spheres, members=problem.ranked_members(z))
-    return LayoutResult(kind=kind, layout=layout, objective=value, share=x, fill_pct=r,
-                        accel_g=problem.peak_accel(z) if kind == "peak" else None,
+    return LayoutResult(kind=kind, layout=layout, objective=problem.objective_value(z), share=x,
+                        fill_pct=r, accel_g=problem.peak_accel(z) if kind == "peak" else None,
                         n_starts=len(x0s), n_converged=converged, n_evaluations=problem.evaluations)
 
 

@@ -76,7 +76,8 @@ class PanelStudy:
 
 
 def run_panel_study(settings: PanelSettings, surrogate, environments: list, search,
-                    n_cells_coupon: int, model: UncertainCeq | None = None) -> PanelStudy:
+                    n_cells_coupon: int, model: UncertainCeq | None = None,
+                    effective_mass_kg=None) -> PanelStudy:
     """Modes, layouts and loss factors of every environment (module docstring).
 
     Parameters
@@ -92,6 +93,9 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
     model : UncertainCeq, optional
         The C_eq model with its uncertainty; default: the surrogate with
         ``settings.surrogate_draws`` bootstrap refits.
+    effective_mass_kg : callable, optional
+        ``effective_mass_kg(fill_pct, spheres)`` -> the particles' effective mass per cell, kg
+        (arrays); default: ``settings.effective_mass_fraction`` of the bed's whole mass.
     """
     from pidpipe.design.designs import optimise_design
     from pidpipe.design.optimisation import Budget
@@ -121,7 +125,8 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
         for mode in in_band:
             phi = mode.shape(centres[:, 0], centres[:, 1])
             loss = ModalLoss(mode, phi, n_cells_coupon, settings.full_cell_spheres,
-                             settings.sphere_mass_kg, model.domain, settings.effective_mass_fraction)
+                             settings.sphere_mass_kg, model.domain, settings.effective_mass_fraction,
+                             effective_mass_kg)
             regions = make_regions(phi, settings.regions)
             for kind in KINDS:
                 source = sources[kind]
