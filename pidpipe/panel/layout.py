@@ -174,11 +174,13 @@ class _RegionProblem:
                 ranked.append(cells)
                 continue
             a = np.abs(loss.phi[cells])
-            g = accel[:, None] * a[None, :]
+            # the contribution on 64 levels of |phi| across the level, interpolated to its cells
+            grid = np.linspace(a.min(), a.max(), 64)
+            g = accel[:, None] * grid[None, :]
             c = np.asarray(self.predict(np.full(g.shape, loss.mode.freq_hz), np.clip(g, lo, hi),
                                         np.full(g.shape, r[k])), dtype=float)
-            value = np.where(g < lo, 0.0, c).mean(axis=0) * a**2
-            ranked.append(cells[np.argsort(-value, kind="stable")])
+            value = np.interp(a, grid, np.where(g < lo, 0.0, c).mean(axis=0) * grid**2)
+            ranked.append(cells[np.lexsort((-a, -value))])
         return ranked
 
     def antinode_first(self, fill_pct: float) -> np.ndarray:
