@@ -18,9 +18,10 @@ rule design_panel:
     output:
         modes="results/panel/modes.csv",
         layout="results/panel/layout.csv",
-        designs="results/panel/designs.csv",
+        designs=report("results/panel/designs.csv", caption="../report/panel.rst",
+                       category="8. Panel"),
         response="results/panel/response.csv",
-        png="results/panel/panel.png",
+        png=report("results/panel/panel.png", caption="../report/panel.rst", category="8. Panel"),
         pdf="results/panel/panel.pdf",
     params:
         config=get_panel_config(),
