@@ -30,7 +30,7 @@ def plot_panel_layouts(panels: list[dict], length_mm: float, width_mm: float) ->
         xx, yy = np.meshgrid(x, y)
         for ax, panel in zip(axes, panels):
             shade = ax.contourf(xx, yy, panel["shape"](xx, yy), levels=np.linspace(-1, 1, 21),
-                                cmap="RdBu_r")
+                                cmap="RdBu_r", alpha=0.45)
             dots = ax.scatter(panel["x_mm"], panel["y_mm"], c=panel["fill_pct"], s=2.0,
                               cmap="viridis", vmin=0.0, vmax=100.0,
                               linewidths=0)
