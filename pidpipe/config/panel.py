@@ -69,7 +69,7 @@ class PanelSettings:
     rotary_inertia: bool = True
     max_freq_hz: float = 1000.0
     damping_ratio: float = 0.01
-    modal_force_n: tuple[float, ...] = (0.1, 0.3)
+    modal_force_n: tuple[float, ...] = (0.3, 1.0, 3.0)
     effective_mass_fraction: float = 1.0
     regions: int = 8
     starts: int = 6
