@@ -55,6 +55,11 @@ class Sandwich:
     rotary_inertia: bool = True
 
     @property
+    def poisson_ratio(self) -> float:
+        """nu of the bending stiffness: the faces'."""
+        return self.face_poisson_ratio
+
+    @property
     def face_distance_m(self) -> float:
         """d = c + t_f, m."""
         return self.core_height_m + self.face_thickness_m
@@ -83,6 +88,39 @@ class Sandwich:
             return 0.0
         t, d, c = self.face_thickness_m, self.face_distance_m, self.core_height_m
         return self.face_density_kg_m3 * t * d**2 / 2.0 + self.core_density_kg_m3 * c**3 / 12.0
+
+
+@dataclass(frozen=True)
+class HomogeneousPlate:
+    """A homogeneous isotropic Mindlin plate of thickness h (SI), the same interface as
+    :class:`Sandwich`: D = E h^3 / (12 (1 - nu^2)), S = kappa G h, rho_A = rho h, I = rho h^3 / 12.
+
+    It lets the Navier solver be checked on published thick-plate benchmarks.
+    """
+
+    thickness_m: float
+    density_kg_m3: float
+    youngs_modulus_pa: float
+    poisson_ratio: float
+    shear_correction: float = 5.0 / 6.0
+    rotary_inertia: bool = True
+
+    @property
+    def bending_stiffness_nm(self) -> float:
+        return self.youngs_modulus_pa * self.thickness_m**3 / (12.0 * (1.0 - self.poisson_ratio**2))
+
+    @property
+    def shear_stiffness_n_m(self) -> tuple[float, float]:
+        shear = self.shear_correction * self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson_ratio)) * self.thickness_m
+        return shear, shear
+
+    @property
+    def mass_per_area_kg_m2(self) -> float:
+        return self.density_kg_m3 * self.thickness_m
+
+    @property
+    def rotary_inertia_kg(self) -> float:
+        return self.density_kg_m3 * self.thickness_m**3 / 12.0 if self.rotary_inertia else 0.0
 
 
 @dataclass(frozen=True)
@@ -141,7 +179,7 @@ def navier_matrices(sandwich: Sandwich, alpha: float, beta: float) -> tuple[np.n
     """
     d = sandwich.bending_stiffness_nm
     sx, sy = sandwich.shear_stiffness_n_m
-    nu = sandwich.face_poisson_ratio
+    nu = sandwich.poisson_ratio
     k = np.array([
         [sx * alpha**2 + sy * beta**2, sx * alpha, sy * beta],
         [sx * alpha, d * alpha**2 + 0.5 * d * (1 - nu) * beta**2 + sx, 0.5 * d * (1 + nu) * alpha * beta],
