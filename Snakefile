@@ -77,6 +77,7 @@ include: "workflow/rules/fidelity.smk"
 include: "workflow/rules/scene.smk"
 include: "workflow/rules/host.smk"
 include: "workflow/rules/verify.smk"
+include: "workflow/rules/panel.smk"
 
 
 rule all:

@@ -80,6 +80,20 @@ def _parser() -> argparse.ArgumentParser:
                         help="folder of the surrogates (default: results)")
     damper.add_argument("--config", type=Path, default=argparse.SUPPRESS,
                         help="config file, for geometry.coupon_n_cells (default: config.yaml)")
+    panel = commands.add_parser(
+        "panel", help="the panel's modes and where on them to put the particles",
+        description="Fit the configured surrogate to a C_eq table and run the modal stage: the "
+                    "config's plate (panel), its modes, and on each mode in an environment's band "
+                    "the source-style and the optimised layouts of the particles, with their added "
+                    "loss factors. Writes modes.csv, layout.csv, designs.csv, response.csv and "
+                    "panel.png into --output-dir.")
+    panel.add_argument("--table", type=Path,
+                       help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
+                            "results/ceq_table.csv")
+    panel.add_argument("--config", type=Path, default=argparse.SUPPRESS,
+                       help="config file (default: config.yaml)")
+    panel.add_argument("--output-dir", type=Path, default=Path("results/panel"),
+                       help="folder of the outputs (default: results/panel)")
     return parser
 
 
@@ -264,8 +278,10 @@ def damper_command(args: argparse.Namespace) -> int:
 
     if args.cells < 1:
         raise PidpipeError(f"--cells {args.cells} is not allowed: it must be >= 1")
-    config = load_config(args.config)
-    damper = Damper.from_results(args.results, int(config["geometry"]["coupon_n_cells"]))
+    from pidpipe.config.sections import Settings
+
+    budget = Settings.from_config(load_config(args.config)).budget
+    damper = Damper.from_results(args.results, budget.n_cells_coupon)
     values = damper.values(args.freq_hz, args.accel_g, args.fill_pct, cells=args.cells)
     impedance = damper.impedance(args.freq_hz, args.accel_g, args.fill_pct, cells=args.cells)[0]
 
@@ -283,10 +299,52 @@ def damper_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def panel_command(args: argparse.Namespace) -> int:
+    """Fit the surrogate to a C_eq table and run the modal stage (pidpipe.panel)."""
+    from pidpipe.config import load_config
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.surrogate import fit_surrogate
+    from pidpipe.steps.panel import panel_study_from_config, write_panel_study
+
+    from pidpipe.config.sections import Settings
+
+    config = load_config(args.config)
+    settings = Settings.from_config(config)
+    if not settings.environments:
+        raise PidpipeError(f"{args.config}: no environments to design for (config key environments)")
+    table_path = args.table or Path(settings.optimisation.external_ceq_table or "results/ceq_table.csv")
+    surrogate = fit_surrogate(read_ceq_table(table_path), method=settings.surrogate.method,
+                              source=str(table_path), allow_holes=settings.surrogate.allow_holes)
+    print(f"pidpipe: {surrogate.describe()}", file=sys.stderr, flush=True)
+    study = panel_study_from_config(config, surrogate)
+    write_panel_study(study, args.output_dir)
+    print(format_panel(study))
+    print(f"wrote {args.output_dir}/modes.csv, layout.csv, designs.csv, response.csv, panel.png")
+    return 0
+
+
+def format_panel(study) -> str:
+    """The modes in the bands and every layout's loss factor, as plain text."""
+    lines = [f"panel {study.settings.length_m:g} m x {study.settings.width_m:g} m, "
+             f"{len(study.centres)} cells, budget {study.settings.n_spheres} spheres; modes: "
+             + ", ".join(f"({m.m},{m.n}) {m.freq_hz:.1f} Hz" for m in study.modes)]
+    if study.designs.empty or "layout" not in study.designs:
+        return "\n".join(lines + ["no mode lies in any environment's band"])
+    for _, row in study.designs.iterrows():
+        if not isinstance(row.get("layout"), str):
+            lines.append(f"  {row['environment']}: {row['note']}")
+            continue
+        lines.append(f"  {row['environment']}  mode ({row['mode_m']},{row['mode_n']})  "
+                     f"{row['design']:<10} {row['layout']:<15} {row['n_cells']:>6} cells  "
+                     f"{row['added_mass_kg']:.4f} kg  eta {row['eta']:.3e} "
+                     f"[{row['eta_lo']:.3e}, {row['eta_hi']:.3e}]")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     handlers = {"case": run_case_command, "check-config": check_config_command,
-                "optimise": optimise_command, "damper": damper_command}
+                "optimise": optimise_command, "damper": damper_command, "panel": panel_command}
     try:
         return handlers[args.command](args)
     except PidpipeError as exc:

@@ -1,0 +1,81 @@
+"""A layout on a mode driven at resonance by a modal force, solved to consistency.
+
+The mode is a single-degree-of-freedom host: the loaded modal mass M, the bare plate's modal
+stiffness k = omega_0^2 M_plate, structural damping c_s = 2 zeta sqrt(k M_plate), forced by the
+modal force F_0 cos(Omega t) at the loaded mode's frequency Omega = sqrt(k / M). The filled
+cells add the dashpot c_p(G) = sum_i C_eq,i(f, G |phi_i|, r_i) phi_i^2 that depends on the
+antinode's acceleration G = |q| Omega^2 / g, which the added damping lowers. The steady
+amplitude solves |q| = F_0 / |k - M Omega^2 + i Omega (c_s + c_p(|q| Omega^2 / g))|, found as the
+host check finds it (:func:`pidpipe.loop.equivalent.solve_point`: sign changes on a log grid,
+refined by Brent's method, the largest root where several exist).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from pidpipe.loop.equivalent import solve_point
+from pidpipe.panel.loss import Layout, ModalLoss
+from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
+
+
+@dataclass(frozen=True)
+class ForcedResponse:
+    """The consistent steady state of a layout at one modal force.
+
+    Attributes
+    ----------
+    force_n : float
+    freq_hz : float
+        The forcing (loaded mode's) frequency, Hz.
+    accel_g : float
+        Antinode acceleration G with the particles, g.
+    bare_accel_g : float
+        Antinode acceleration of the plate without particles at its own resonance, g.
+    eta_particles : float
+        c_p / (Omega M) at the solution.
+    eta_total : float
+        (c_s + c_p) / (Omega M).
+    n_solutions : int
+        Consistent amplitudes found (more than one: the response can jump).
+    clipped_cells : int
+        Filled cells whose G lay above the C_eq model's domain at the solution (clipped to it).
+    """
+
+    force_n: float
+    freq_hz: float
+    accel_g: float
+    bare_accel_g: float
+    eta_particles: float
+    eta_total: float
+    n_solutions: int
+    clipped_cells: int
+
+
+def forced_response(loss: ModalLoss, predict: Callable, layout: Layout, force_n: float,
+                    damping_ratio: float) -> ForcedResponse:
+    """Solve a layout at modal force ``force_n`` (N) to consistency (module docstring)."""
+    mode = loss.mode
+    stiffness = mode.omega**2 * mode.modal_mass_kg
+    structural = 2.0 * damping_ratio * math.sqrt(stiffness * mode.modal_mass_kg)
+    mass = loss.modal_mass_kg(layout)
+    freq = loss.frequency_hz(layout)
+    omega = 2.0 * math.pi * freq
+
+    def model(freq_hz, accel_g):
+        accel = np.asarray(accel_g, dtype=float)
+        values = loss.damping_ns_m(predict, layout, accel, freq_hz=freq)
+        return values.reshape(accel.shape)
+
+    point = solve_point(freq, force_n, mass, stiffness, structural, model)
+    bare = force_n / (structural * mode.omega) * mode.omega**2 / STANDARD_GRAVITY_M_S2
+    c_p = point.ceq_ns_m
+    return ForcedResponse(force_n=force_n, freq_hz=freq, accel_g=point.accel_g, bare_accel_g=bare,
+                          eta_particles=c_p / (omega * mass),
+                          eta_total=(structural + c_p) / (omega * mass),
+                          n_solutions=point.n_solutions,
+                          clipped_cells=loss.clipped_cells(layout, point.accel_g))

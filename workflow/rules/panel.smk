@@ -1,0 +1,39 @@
+# The panel's modal stage (not part of `all`): the config's simply supported sandwich plate, its
+# modes with the core's transverse shear, and on each mode in an environment's band the
+# source-style and the optimised layouts of the particles with their added loss factors.
+#   snakemake --cores 2 panel
+# It refits the surrogate's bootstrap draws and reruns the coupon designs: about a minute.
+
+from pidpipe.config.panel import panel_params
+
+
+def get_panel_config():
+    """The config values the modal stage depends on (pidpipe.config.panel.panel_params)."""
+    return panel_params(config)
+
+
+rule design_panel:
+    input:
+        surrogate="results/surrogate.json",
+    output:
+        modes="results/panel/modes.csv",
+        layout="results/panel/layout.csv",
+        designs=report("results/panel/designs.csv", caption="../report/panel.rst",
+                       category="8. Panel"),
+        response="results/panel/response.csv",
+        png=report("results/panel/panel.png", caption="../report/panel.rst", category="8. Panel"),
+        pdf="results/panel/panel.pdf",
+    params:
+        config=get_panel_config(),
+        folder="results/panel",
+    log:
+        "logs/design_panel.log",
+    benchmark:
+        "results/benchmarks/design_panel.tsv"
+    script:
+        "../scripts/design_panel.py"
+
+
+rule panel:
+    input:
+        rules.design_panel.output,
