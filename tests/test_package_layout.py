@@ -8,7 +8,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "pidpipe"
 
 #: The rooms from the bottom up: each may import itself and the rooms before it.
-ROOMS = ("errors", "files", "physics", "config", "cases", "cell", "measurement", "liggghts",
+ROOMS = ("errors", "files", "physics", "cases", "config", "cell", "measurement", "liggghts",
          "dem", "design", "figures", "loop", "panel", "studies", "steps", "cli")
 
 
