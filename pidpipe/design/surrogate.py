@@ -913,8 +913,14 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
 def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
                     scheme: str = "point", rows: str | None = None,
                     log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
-                    value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN) -> pd.DataFrame:
+                    value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
+                    fit_rows: str | None = None) -> pd.DataFrame:
     """Every held-out row's prediction in one cross-validation scheme (see :func:`cross_validate`).
+
+    ``rows`` chooses the rows that are held out in turn; ``fit_rows`` (default: ``rows``) the
+    rows of the rest that each fold fits, so that a spline fitted to the status-ok rows can be
+    scored on every case the fit policy keeps. A held-out row outside the fold's domain is left
+    out (count them with ``n_predictions``).
 
     Returns
     -------
@@ -928,6 +934,7 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
     default_target, default_rows = METHOD_DEFAULTS[method]
     target = default_target if target is None else target
     rows = default_rows if rows is None else rows
+    fit_rows = rows if fit_rows is None else fit_rows
     table = validate_ceq_table(table)
     if rows == "policy":
         used, _ = split_for_fit(table, value_column, sem_column)
@@ -937,7 +944,7 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
     out = []
     for fold, held in enumerate(_folds(used, scheme)):
         try:
-            surrogate = fit_surrogate(used.loc[~held], method=method, target=target, rows=rows,
+            surrogate = fit_surrogate(used.loc[~held], method=method, target=target, rows=fit_rows,
                                       log_offset_fraction=log_offset_fraction,
                                       allow_holes=(scheme == "point" or method in _BRIDGING_METHODS),
                                       value_column=value_column, sem_column=sem_column)
