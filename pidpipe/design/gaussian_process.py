@@ -131,7 +131,7 @@ class GaussianProcess:
         return {"theta": self.theta.tolist(), "kernel": str(self.regressor.kernel_)}
 
 
-def fit_gaussian_process(x, y, noise, theta=None) -> GaussianProcess:
+def fit_gaussian_process(x, y, noise, theta=None, start=None) -> GaussianProcess:
     """Fit (or, given ``theta``, only condition) the GP of the module docstring.
 
     Parameters
@@ -145,6 +145,9 @@ def fit_gaussian_process(x, y, noise, theta=None) -> GaussianProcess:
     theta : array_like, optional
         Log-hyperparameters of a previous fit (:attr:`GaussianProcess.theta`); the kernel is then
         fixed (``optimizer=None``) and the model is rebuilt deterministically.
+    start : array_like, optional
+        Log-hyperparameters to start the optimiser from, without restarts (a refit on slightly
+        changed noise, whose optimum lies near the previous one).
 
     Returns
     -------
@@ -160,9 +163,12 @@ def fit_gaussian_process(x, y, noise, theta=None) -> GaussianProcess:
     standard = (y - mean) / scale
     alpha = noise / scale**2 + 1e-10  # the jitter scikit-learn adds by default
     if theta is None:
+        kernel = _kernel(length_scale=np.full(x.shape[1], 0.5))
+        if start is not None:
+            kernel = kernel.clone_with_theta(np.asarray(start, dtype=float))
         regressor = GaussianProcessRegressor(
-            kernel=_kernel(length_scale=np.full(x.shape[1], 0.5)), alpha=alpha,
-            n_restarts_optimizer=RESTARTS, random_state=SEED)
+            kernel=kernel, alpha=alpha, n_restarts_optimizer=RESTARTS if start is None else 0,
+            random_state=SEED)
         with warnings.catch_warnings(), threadpool_limits(1):
             # a hyperparameter at its bound (w -> 0 when the SEMs explain the scatter) is a
             # result, not a failure

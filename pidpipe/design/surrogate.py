@@ -1,8 +1,9 @@
-"""Spline surrogates of the coupon's C_eq (N*s/m) over (f [Hz], G [g], r [%]).
+"""Surrogates of the coupon's C_eq (N*s/m) over (f [Hz], G [g], r [%]): the source's
+interpolating splines, and a Gaussian process that fits each case with its noise.
 
 Coordinates and target
 ----------------------
-The interpolants work in ``u = (ln f, ln G, r)``. C_eq = E_d / (pi * omega * W^2) with
+Every method works in ``u = (ln f, ln G, r)``. C_eq = E_d / (pi * omega * W^2) with
 W = a/omega^2 grows like a power of f (roughly f^1 when the spheres impact every cycle), and the
 reference grid is close to log-spaced in f (50 ... 1000 Hz), so ln f makes the f dependence
 nearly linear. G enters through W^2 = (G g / omega^2)^2, so C_eq also behaves like a power of G
@@ -322,7 +323,13 @@ class Surrogate:
         """One paragraph for logs: method, points, domain, left-out rows and holes."""
         bounds = ", ".join(f"{k} [{lo:g}, {hi:g}] {_UNITS[k]}" for k, (lo, hi) in self.domain.items())
         text = (f"surrogate {self.method} ({self.target} target) on {len(self.training)} rows; "
-                f"domain {bounds}; {len(self.excluded)} row(s) left out (status not ok)")
+                f"domain {bounds}; {len(self.excluded)} row(s) left out "
+                f"({'by the fit policy' if self.options.get('rows') == 'policy' else 'status not ok'})")
+        if self.method == "gp":
+            model = self._model
+            text += (f"; GP length scales (ln f, ln G, r; domain = 1) "
+                     f"{', '.join(f'{v:.3g}' for v in model.length_scales)}, excess scatter "
+                     f"{np.sqrt(model.white):.3g} ({self.target} units)")
         if self.holes:
             text += f"; bridges {len(self.holes)} hole(s): {self.holes}"
         return text
@@ -519,15 +526,20 @@ def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: st
     gets a smaller noise in a log-like y than one below it, and the fit leans upward (on
     synthetic tables with 30 % noise at 1 g this put the GP a standard deviation above the truth
     there on average; at the fitted value it is not). One fit at the observations gives the
-    fitted values, a second fit uses them. ``noise_at`` given (a reload) skips the first fit.
+    fitted values, a second fit uses them, its optimiser started from the first fit's kernel.
+    ``noise_at`` given (a reload) skips the first fit.
     """
     x = _scale_u(_to_u(*points.T), domain)
     if noise_at is None:
         y, noise = _to_target(values, sems, target, offset)
         first = fit_gaussian_process(x, y, noise, theta=kernel_theta)
         noise_at = _from_target(first(x), target, offset)
+        start = first.theta
+    else:
+        start = None
     y, noise = _to_target(values, sems, target, offset, at=noise_at)
-    return fit_gaussian_process(x, y, noise, theta=kernel_theta), np.asarray(noise_at, dtype=float)
+    return (fit_gaussian_process(x, y, noise, theta=kernel_theta, start=start),
+            np.asarray(noise_at, dtype=float))
 
 
 def _target_values(values: np.ndarray, target: str, log_offset_fraction: float):
