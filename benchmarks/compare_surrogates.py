@@ -27,6 +27,7 @@ the scatter of the mean coverage from the spread between tables; off-grid also s
 points between the two lowest G levels (1-5 g) and the rest.
 
 Run: .venv/bin/python benchmarks/compare_surrogates.py results/ceq_table.csv [--synthetic 40]
+(the default campaign's DEM table is committed: tests/fixtures/ceq_table_dem_default.csv)
 Writes benchmarks/records/compare_surrogates.json.
 """
 
@@ -236,7 +237,11 @@ def main() -> None:
             print(f"  {key}: {row['coverage']:.3f} (nominal {row['nominal']:.3f}; scatter between tables "
                   f"{row['scatter_between_tables']:.3f}, binomial {row['binomial_scatter_pooled']:.3f})")
     # the table by its place in a campaign folder and its digest, not by this machine's path
-    shown = "results/ceq_table.csv" if args.table.parent.name == "results" else args.table.name
+    repo = Path(__file__).resolve().parent.parent
+    if args.table.resolve().is_relative_to(repo):
+        shown = str(args.table.resolve().relative_to(repo))
+    else:
+        shown = "results/ceq_table.csv" if args.table.parent.name == "results" else args.table.name
     command = " ".join(["python benchmarks/compare_surrogates.py", shown]
                        + (["--synthetic", str(args.synthetic)] if args.synthetic else []))
     figures["table"]["sha256"] = hashlib.sha256(args.table.read_bytes()).hexdigest()
