@@ -258,3 +258,19 @@ def test_leave_one_out_z_scores_on_the_dem_campaign_table_are_calibrated():
     rbf_policy = loo_predictions(table, "rbf_thin_plate", rows="policy")
     rbf_ok = loo_predictions(table, "rbf_thin_plate", rows="policy", fit_rows="ok")
     assert rms_per_sem(gp) < 0.6 * rms_per_sem(rbf_policy) < 0.6 * rms_per_sem(rbf_ok)
+
+
+def test_uncertainty_interval_and_scatter_agree():
+    surrogate = fit_surrogate(noisy_table(8), method="gp")
+    f, g, r = random_points(50, np.random.default_rng(3))
+    value, u = surrogate.predict_with_uncertainty(f, g, r)
+    lower, upper = surrogate.predict_interval(f, g, r, level=0.6827, clip=False)
+    np.testing.assert_allclose(u, 0.5 * (upper - lower), rtol=1e-3)  # 0.6827 vs erf(1/sqrt 2)
+    np.testing.assert_allclose(value, surrogate.predict(f, g, r))
+    assert np.all((lower < value) & (value < upper))  # the median of a log-normal interval
+    _, u_scatter = surrogate.predict_with_uncertainty(f, g, r, include_scatter=True)
+    assert np.all(u_scatter >= u)
+    wide = surrogate.predict_interval(f, g, r, level=0.95)
+    assert np.all((wide[0] <= np.maximum(lower, 0.0)) & (wide[1] >= upper))
+    value, u = surrogate.predict_with_uncertainty(300.0, 5.0, 50.0)
+    assert value.shape == () and u.shape == ()
