@@ -3,9 +3,10 @@ flagged cases, save/load, refits and the generic value column.
 
 The synthetic tables lie on the reference grid (5 f x 3 G x 4 r). Their truth is the analytic
 ``onset`` of test_surrogate (C_eq ~ f^1.1, a steep rise above 1 g, a fill optimum) scaled to the
-DEM's coupon values (0.4-230 N*s/m); their noise is what the DEM campaign reports: SEMs of 5 %
-at 5 and 10 g and of 30 % at 1 g, where the cases are flagged (``not_resolved`` or
-``target_not_reached``) and the spline surrogates leave them out.
+order of the DEM's coupon values (1.2-410 N*s/m on the grid); their noise is of the order the
+DEM campaign reports (tests/fixtures/ceq_table_dem_default.csv: 2-5 % at 5 and 10 g, 4-63 % at
+1 g): SEMs of 5 % at 5 and 10 g and of 30 % at 1 g, where the cases are flagged
+(``not_resolved`` or ``target_not_reached``) and the spline surrogates leave them out.
 """
 
 import itertools
