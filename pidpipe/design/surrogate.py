@@ -1,8 +1,9 @@
-"""Spline surrogates of the coupon's C_eq (N*s/m) over (f [Hz], G [g], r [%]).
+"""Surrogates of the coupon's C_eq (N*s/m) over (f [Hz], G [g], r [%]): the source's
+interpolating splines, and a Gaussian process that fits each case with its noise.
 
 Coordinates and target
 ----------------------
-The interpolants work in ``u = (ln f, ln G, r)``. C_eq = E_d / (pi * omega * W^2) with
+Every method works in ``u = (ln f, ln G, r)``. C_eq = E_d / (pi * omega * W^2) with
 W = a/omega^2 grows like a power of f (roughly f^1 when the spheres impact every cycle), and the
 reference grid is close to log-spaced in f (50 ... 1000 Hz), so ln f makes the f dependence
 nearly linear. G enters through W^2 = (G g / omega^2)^2, so C_eq also behaves like a power of G
@@ -33,15 +34,47 @@ Methods (:data:`METHODS`)
     (``scipy.interpolate.RBFInterpolator``) on coordinates scaled to [0, 1] by the domain;
     works on scattered points, so it can fit a grid with holes when asked explicitly.
 
+``gp``
+    Gaussian-process regression with a known noise per case (:mod:`pidpipe.design.gaussian_process`,
+    scikit-learn's ``GaussianProcessRegressor`` with per-sample ``alpha``): every case enters
+    with its SEM (propagated to the transformed target to first order, ``alpha_i = (dy/dC)^2
+    SEM_i^2``), an anisotropic Matern 5/2 kernel over u scaled to [0, 1] plus a fitted excess
+    white noise, hyperparameters by maximum marginal likelihood. It does not interpolate the
+    noisy values, and it has a predictive standard uncertainty of its own at any (f, G, r)
+    (:meth:`Surrogate.predict_with_uncertainty`), from the cases' noise and from the distance
+    to them. Its rows follow :func:`pidpipe.design.fit_policy.split_for_fit`: cases flagged
+    for precision only (``target_not_reached``, ``not_resolved``, ``not_stationary``...) are
+    fitted with their large SEM instead of leaving a hole; failed cases and failed checks are
+    dropped. Its default target is ``log``.
+
+Targets of the GP
+-----------------
+The GP knows each case's noise, so its log target needs no offset to hide noise: its c0 is the
+smallest positive SEM of the fitted rows (it only keeps ln defined at C = 0; a value at the
+noise level enters with a noise of order one or more in ln C and weighs accordingly). On the
+DEM campaign's table, whose C_eq spans 0.0016 to 236 N*s/m, this resolves the 50-100 Hz / 1 g
+cases that an offset of 1e-3 of the largest value (0.24 N*s/m) flattens (leave-one-out RMS
+error 2.3 case SEMs against 2.7 with that offset, when it was measured, issue 26).
+``asinh`` fits ``y = asinh(C / c0)`` with c0 the median SEM (linear below the noise level,
+logarithmic above); it flattens those cases more (27 SEMs). ``linear`` fits C (643 SEMs: the
+small values drown in the large ones' scatter). Figures from ``benchmarks/compare_surrogates.py``. With any target the GP's Gaussian
+interval in y is mapped back through the monotone inverse transform, so intervals in C are
+asymmetric where the target is a log.
+
+The surrogate is generic over the fitted column: ``value_column`` and ``sem_column`` (C_eq by
+default; the effective mass ``m_eff_cell_kg`` / ``m_eff_cell_sem_kg`` the same way).
+
 Domain and extrapolation policy
 -------------------------------
 The domain is the bounding box of the fitted rows, per variable. :meth:`Surrogate.predict`
 refuses any query outside it with :class:`~pidpipe.errors.DomainError` (no extrapolation, no
 silent clipping); a tolerance of 1e-9 of the axis span absorbs rounding only.
 
-Rows that are not ``status == "ok"`` are never fitted. If leaving them out makes holes in the
-grid, :func:`fit_surrogate` refuses unless ``allow_holes=True``; then only ``rbf_thin_plate``
-can bridge the holes, and the surrogate lists them (:attr:`Surrogate.holes`).
+The spline methods fit the rows with ``status == "ok"`` (``rows="ok"``); ``gp`` fits the rows
+of the fit policy (``rows="policy"``, :mod:`pidpipe.design.fit_policy`); either can be asked for
+the other. If leaving rows out makes holes in the grid, :func:`fit_surrogate` refuses unless
+``allow_holes=True``; then only ``rbf_thin_plate`` and ``gp`` can bridge the holes, and the
+surrogate lists them (:attr:`Surrogate.holes`); ``gp`` bridges them with a larger uncertainty.
 
 Which surrogate the optimiser uses
 ----------------------------------
@@ -51,6 +84,18 @@ table sampled on the reference grid it had the lowest leave-one-plane-out error 
 tensor_linear, all with the log target; 1.9 % RMS in leave-one-point-out), it is smooth (SLSQP's finite-difference gradients have no kinks at
 grid lines), and it is the only method that works when the grid has holes.
 :func:`select_surrogate` repeats that choice on a real table from its cross-validation.
+
+On the DEM campaign's table of the default grid (60 cases, 17 flagged: 15 at 1 g, 2 at 5 g for
+``not_stationary``), ``benchmarks/compare_surrogates.py`` held every case out in turn and
+divided each error by the case's SEM (1 is the case's own noise). RMS: ``gp`` (log) 2.3,
+``rbf_thin_plate`` fitted to the status-ok rows 116 (it bridges the flagged 1 g cases from 5 g:
+47-55 N*s/m at 450-500 Hz / 1 g / 25 %, where the GP gives 6.6-9.0 +- 1.4-1.8 and the case
+measured 7.9 +- 4.8), ``rbf_thin_plate`` interpolating the flagged cases too 5.1. Leaving out
+whole interior planes: ``gp`` 6.5, ``tensor_linear`` 8.6, ``rbf_thin_plate`` 9.5,
+``tensor_spline`` 20.8. The GP's leave-one-out z-scores have a standard deviation of 0.87
+(0.96 over the flagged cases, 0.84 over the ok ones); 77 % and 98 % of the held-out values lie
+in its 68.3 % and 95 % intervals. Where the grid is too coarse for the response, between the
+1 and 5 g levels, its intervals are too narrow (tests/design/test_surrogate_gp.py).
 """
 
 from __future__ import annotations
@@ -64,6 +109,8 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import RBFInterpolator, make_interp_spline
 
+from scipy.stats import norm
+
 from pidpipe.design.ceq_table import (
     COORDINATE_COLUMNS,
     SEM_COLUMN,
@@ -71,12 +118,22 @@ from pidpipe.design.ceq_table import (
     split_usable,
     validate_ceq_table,
 )
+from pidpipe.design.fit_policy import split_for_fit
+from pidpipe.design.gaussian_process import fit_gaussian_process
 from pidpipe.errors import DomainError, TableError
 
-#: Interpolation methods, see the module docstring.
-METHODS: tuple[str, ...] = ("tensor_linear", "tensor_spline", "rbf_thin_plate")
-#: Target transforms: "log" fits ln(C + c0), "linear" fits C.
-TARGETS: tuple[str, ...] = ("log", "linear")
+#: Interpolating methods (the source's family), see the module docstring.
+SPLINE_METHODS: tuple[str, ...] = ("tensor_linear", "tensor_spline", "rbf_thin_plate")
+#: Every method: the interpolants and the noise-aware Gaussian process.
+METHODS: tuple[str, ...] = SPLINE_METHODS + ("gp",)
+#: Target transforms: "log" fits ln(C + c0), "linear" fits C, "asinh" fits asinh(C / c0).
+TARGETS: tuple[str, ...] = ("log", "linear", "asinh")
+#: Rows a fit uses: "ok" (status ok) or "policy" (:func:`pidpipe.design.fit_policy.split_for_fit`).
+ROWS: tuple[str, ...] = ("ok", "policy")
+#: Each method's target and rows when the caller does not choose.
+METHOD_DEFAULTS: dict[str, tuple[str, str]] = {
+    "tensor_linear": ("log", "ok"), "tensor_spline": ("log", "ok"),
+    "rbf_thin_plate": ("log", "ok"), "gp": ("log", "policy")}
 #: The surrogate the optimiser uses unless :func:`select_surrogate` says otherwise.
 DEFAULT_METHOD = "rbf_thin_plate"
 DEFAULT_TARGET = "log"
@@ -87,9 +144,16 @@ RELATIVE_ERROR_FLOOR = 1e-3
 
 _UNITS = {"freq_hz": "Hz", "accel_g": "g", "fill_pct": "%"}
 _TENSOR_METHODS = ("tensor_linear", "tensor_spline")
+_BRIDGING_METHODS = ("rbf_thin_plate", "gp")
+#: gp's training column: the value at which each SEM was propagated to the target (its fit).
+NOISE_AT_COLUMN = "noise_propagated_at"
+#: Probability inside +-1 standard deviation of a normal distribution.
+ONE_SIGMA = float(norm.cdf(1.0) - norm.cdf(-1.0))
 _DOMAIN_TOLERANCE = 1e-9
 _FILE_FORMAT = "pidpipe-surrogate"
-_FILE_VERSION = 1
+_FILE_VERSION = 2
+#: Versions :func:`load_surrogate` reads (1: before gp, value_column and sem_column).
+_READABLE_VERSIONS = (1, 2)
 
 
 def _to_u(freq_hz: np.ndarray, accel_g: np.ndarray, fill_pct: np.ndarray) -> np.ndarray:
@@ -111,13 +175,16 @@ class Surrogate:
     domain : dict of str -> (float, float)
         Bounds of ``freq_hz`` (Hz), ``accel_g`` (g) and ``fill_pct`` (%).
     offset_ns_m : float
-        c0 of the "log" target, N*s/m (0 for "linear").
+        c0 of the "log" and "asinh" targets, in the value's unit (0 for "linear").
     excluded : list of dict
         Rows left out of the fit (status not ok): coordinates, status and case_id if known.
     holes : list of tuple of float
         (f, G, r) grid points with no usable row that the fit bridged (``allow_holes=True``).
     options : dict
-        The fit options, so that :func:`load_surrogate` can refit identically.
+        The fit options, so that :func:`load_surrogate` can refit identically (for ``gp`` also
+        the fitted kernel's log-hyperparameters ``kernel_theta``).
+    value_column, sem_column : str
+        The fitted column and its SEM column.
     """
 
     method: str
@@ -129,6 +196,8 @@ class Surrogate:
     holes: list[tuple[float, float, float]] = field(default_factory=list)
     options: dict = field(default_factory=dict)
     _model: object = field(default=None, repr=False)
+    value_column: str = VALUE_COLUMN
+    sem_column: str = SEM_COLUMN
 
     def predict(self, freq_hz, accel_g, fill_pct) -> np.ndarray | float:
         """C_eq of the coupon at (f, G, r), refusing queries outside the domain.
@@ -156,6 +225,91 @@ class Surrogate:
         values = self._predict(*(a.ravel() for a in arrays)).reshape(shape)
         return float(values) if values.ndim == 0 else values
 
+    def predict_with_uncertainty(self, freq_hz, accel_g, fill_pct,
+                                 include_scatter: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Prediction and its standard uncertainty at (f, G, r) (method ``gp`` only).
+
+        The GP is Gaussian in the transformed target y; with posterior mean mu and standard
+        deviation s, the prediction is ``T^-1(mu)`` (the same as :meth:`predict`) and its
+        standard uncertainty is half the width of the central 68.3 % interval,
+        ``(T^-1(mu + s) - T^-1(mu - s)) / 2``, which is the standard deviation where s is small
+        and follows the asymmetry of a log-like target where it is not.
+
+        Parameters
+        ----------
+        freq_hz, accel_g, fill_pct : float or array_like
+            As in :meth:`predict`.
+        include_scatter : bool
+            False: the uncertainty of the response itself (what an infinitely long case would
+            measure). True: add the fitted excess scatter between cases that their SEMs do not
+            hold (compare with one new case, whose own SEM is then added separately).
+
+        Returns
+        -------
+        value, uncertainty : numpy.ndarray
+            Broadcast shape of the inputs, in the value's unit (N*s/m for C_eq).
+
+        Raises
+        ------
+        DomainError
+            As :meth:`predict`.
+        TableError
+            The method has no uncertainty of its own (the interpolating splines).
+        """
+        lo, hi = self.predict_interval(freq_hz, accel_g, fill_pct, ONE_SIGMA, include_scatter,
+                                       clip=False)
+        value = np.asarray(self.predict(freq_hz, accel_g, fill_pct), dtype=float)
+        return value, 0.5 * (hi - lo)
+
+    def predict_interval(self, freq_hz, accel_g, fill_pct, level: float = 0.95,
+                         include_scatter: bool = False, clip: bool = True):
+        """Central predictive interval of probability ``level`` at (f, G, r) (method ``gp``).
+
+        Parameters
+        ----------
+        freq_hz, accel_g, fill_pct : float or array_like
+            As in :meth:`predict`.
+        level : float
+            Probability inside the interval, in (0, 1).
+        include_scatter : bool
+            As in :meth:`predict_with_uncertainty`.
+        clip : bool
+            Clip the bounds at 0 (dissipation is not negative), as :meth:`predict` does.
+
+        Returns
+        -------
+        lower, upper : numpy.ndarray
+            Broadcast shape of the inputs, in the value's unit.
+        """
+        if not 0.0 < level < 1.0:
+            raise ValueError(f"level must be in (0, 1), got {level!r}")
+        mu, sd = self._predict_transformed(freq_hz, accel_g, fill_pct, include_scatter)
+        k = float(norm.ppf(0.5 + 0.5 * level))
+        lower, upper = (_from_target(mu - k * sd, self.target, self.offset_ns_m),
+                        _from_target(mu + k * sd, self.target, self.offset_ns_m))
+        if clip:
+            lower, upper = np.maximum(lower, 0.0), np.maximum(upper, 0.0)
+        return lower, upper
+
+    def _predict_transformed(self, freq_hz, accel_g, fill_pct,
+                             include_scatter: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """GP posterior mean and standard deviation of the transformed target, broadcast shape."""
+        if self.method != "gp":
+            raise TableError(f"surrogate {self.method} interpolates and has no uncertainty of its "
+                             f"own; fit method gp for one")
+        arrays = _as_query_arrays(freq_hz, accel_g, fill_pct)
+        self.check_domain(*arrays)
+        shape = arrays[0].shape
+        u = self._model_input(*(a.ravel() for a in arrays))
+        mu, sd = self._model.predict(u, include_white=include_scatter)
+        return mu.reshape(shape), sd.reshape(shape)
+
+    def _model_input(self, freq_hz: np.ndarray, accel_g: np.ndarray,
+                     fill_pct: np.ndarray) -> np.ndarray:
+        """What the model takes: u for the splines, u scaled to [0, 1] by the domain for gp."""
+        u = _to_u(freq_hz, accel_g, fill_pct)
+        return _scale_u(u, self.domain) if self.method == "gp" else u
+
     def check_domain(self, freq_hz, accel_g, fill_pct) -> None:
         """Raise :class:`DomainError` if any query value lies outside :attr:`domain`."""
         for name, values in zip(COORDINATE_COLUMNS, (freq_hz, accel_g, fill_pct)):
@@ -179,21 +333,41 @@ class Surrogate:
     def _predict(self, freq_hz: np.ndarray, accel_g: np.ndarray,
                  fill_pct: np.ndarray) -> np.ndarray:
         """C_eq at m points, shape (m,), N*s/m; no input checks, no domain checks."""
-        y = self._model(_to_u(freq_hz, accel_g, fill_pct))
-        if self.target == "log":
-            values = np.exp(y) - self.offset_ns_m
-        else:
-            values = np.asarray(y, dtype=float)
-        return np.maximum(values, 0.0)
+        y = self._model(self._model_input(freq_hz, accel_g, fill_pct))
+        return np.maximum(_from_target(y, self.target, self.offset_ns_m), 0.0)
 
     def describe(self) -> str:
         """One paragraph for logs: method, points, domain, left-out rows and holes."""
         bounds = ", ".join(f"{k} [{lo:g}, {hi:g}] {_UNITS[k]}" for k, (lo, hi) in self.domain.items())
         text = (f"surrogate {self.method} ({self.target} target) on {len(self.training)} rows; "
-                f"domain {bounds}; {len(self.excluded)} row(s) left out (status not ok)")
+                f"domain {bounds}; {len(self.excluded)} row(s) left out "
+                f"({'by the fit policy' if self.options.get('rows') == 'policy' else 'status not ok'})")
+        if self.method == "gp":
+            model = self._model
+            text += (f"; GP length scales (ln f, ln G, r; domain = 1) "
+                     f"{', '.join(f'{v:.3g}' for v in model.length_scales)}, excess scatter "
+                     f"{np.sqrt(model.white):.3g} ({self.target} units)")
         if self.holes:
             text += f"; bridges {len(self.holes)} hole(s): {self.holes}"
         return text
+
+
+def _from_target(y, target: str, offset: float) -> np.ndarray:
+    """Inverse of the target transform: C from y (unclipped), value's unit."""
+    y = np.asarray(y, dtype=float)
+    if target == "log":
+        return np.exp(y) - offset
+    if target == "asinh":
+        return offset * np.sinh(y)
+    return y
+
+
+def _scale_u(u: np.ndarray, domain: dict[str, tuple[float, float]]) -> np.ndarray:
+    """u = (ln f, ln G, r) scaled to [0, 1] per axis by the domain, shape (m, 3)."""
+    lo = _to_u(*(np.array([domain[name][0]]) for name in COORDINATE_COLUMNS))[0]
+    hi = _to_u(*(np.array([domain[name][1]]) for name in COORDINATE_COLUMNS))[0]
+    span = np.where(hi > lo, hi - lo, 1.0)
+    return (u - lo) / span
 
 
 def _as_query_arrays(freq_hz, accel_g, fill_pct) -> tuple[np.ndarray, ...]:
@@ -218,30 +392,42 @@ def _as_query_arrays(freq_hz, accel_g, fill_pct) -> tuple[np.ndarray, ...]:
 # Fitting
 
 
-def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str = DEFAULT_TARGET,
+def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str | None = None,
                   log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                   smoothing: float = 0.0, allow_holes: bool = False,
-                  source: str = "<table>") -> Surrogate:
-    """Fit a surrogate of C_eq_coupon to the usable rows of a C_eq table.
+                  source: str = "<table>", rows: str | None = None,
+                  value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
+                  kernel_theta=None) -> Surrogate:
+    """Fit a surrogate of C_eq_coupon (or of another value column) to a C_eq table.
 
     Parameters
     ----------
     table : pandas.DataFrame
-        A C_eq table (validated again here); only ``status == "ok"`` rows are fitted.
+        A C_eq table (validated again here), n rows.
     method : str
         One of :data:`METHODS`.
-    target : str
-        ``"log"`` (fit ln(C + c0)) or ``"linear"`` (fit C).
+    target : str, optional
+        ``"log"`` (fit ln(C + c0)), ``"linear"`` (fit C) or ``"asinh"`` (fit asinh(C / c0));
+        by default the method's (:data:`METHOD_DEFAULTS`).
     log_offset_fraction : float
-        c0 as a fraction of the largest fitted C_eq, > 0 (target "log").
+        c0 as a fraction of the largest fitted value, > 0 (the splines' "log" and "asinh"; gp
+        takes c0 from the SEMs, see the module docstring).
     smoothing : float
         ``rbf_thin_plate`` only: RBFInterpolator's smoothing (0 interpolates exactly; > 0 fits
         noisy DEM values in the least-squares sense). Units of the transformed target squared.
     allow_holes : bool
-        Let ``rbf_thin_plate`` bridge grid points that have no usable row (they are listed in
-        :attr:`Surrogate.holes`). Tensor methods always need a complete grid.
+        Let ``rbf_thin_plate`` or ``gp`` bridge grid points that have no fitted row (they are
+        listed in :attr:`Surrogate.holes`). Tensor methods always need a complete grid.
     source : str
         Name of the table for error messages.
+    rows : str, optional
+        ``"ok"`` (status ok rows) or ``"policy"`` (:func:`pidpipe.design.fit_policy.split_for_fit`);
+        by default the method's (:data:`METHOD_DEFAULTS`).
+    value_column, sem_column : str
+        The fitted column and its SEM (``gp`` needs the SEM in every fitted row).
+    kernel_theta : array_like, optional
+        ``gp`` only: log-hyperparameters of an earlier fit; the kernel is then not optimised
+        (how :func:`load_surrogate` rebuilds a saved GP exactly).
 
     Returns
     -------
@@ -251,56 +437,151 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     ------
     TableError
         Bad or missing values in the rows to fit, duplicated points, fewer levels along an axis
-        than the method needs, holes in the grid (unless allowed), or an unknown option.
+        than the method needs, holes in the grid (unless allowed), no SEMs for ``gp``, or an
+        unknown option.
     """
-    _check_options(method, target, log_offset_fraction, smoothing)
+    default_target, default_rows = METHOD_DEFAULTS.get(method, (DEFAULT_TARGET, "ok"))
+    target = default_target if target is None else target
+    rows = default_rows if rows is None else rows
+    _check_options(method, target, log_offset_fraction, smoothing, rows)
     table = validate_ceq_table(table, source=source)
-    used, excluded = split_usable(table)
+    if value_column not in table.columns:
+        raise TableError(f"C_eq table {source}: no column {value_column} to fit")
+    if rows == "policy":
+        if sem_column not in table.columns:
+            raise TableError(f"C_eq table {source}: the fit policy needs the SEM column {sem_column}")
+        used, excluded = split_for_fit(table, value_column, sem_column)
+    else:
+        used, excluded = split_usable(table)
     if used.empty:
-        raise TableError(f"C_eq table {source}: no row has status ok; nothing to fit")
+        raise TableError(f"C_eq table {source}: no row to fit ({rows} rows)")
+    values = used[value_column].to_numpy(dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise TableError(f"C_eq table {source}: {value_column} is not finite in a row to fit")
+    sems = _fit_sems(used, method, sem_column, source)
     _check_duplicates(used, source)
     _check_levels(used, method, source)
     holes = _find_holes(table, used)
     _check_holes(holes, method, allow_holes, excluded, source)
     points = used[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
-    values = used[VALUE_COLUMN].to_numpy(dtype=float)
-    offset, y = _target_values(values, target, log_offset_fraction)
+    offset = _target_offset(values, sems if method == "gp" else None, target, log_offset_fraction)
     domain = {name: (float(points[:, i].min()), float(points[:, i].max()))
               for i, name in enumerate(COORDINATE_COLUMNS)}
-    model = _build_model(method, points, y, domain, smoothing, source)
+    options = {"log_offset_fraction": log_offset_fraction, "smoothing": smoothing,
+               "allow_holes": allow_holes, "rows": rows}
+    noise_at = None
+    if method == "gp":
+        stored = (used[NOISE_AT_COLUMN].to_numpy(dtype=float)
+                  if kernel_theta is not None and NOISE_AT_COLUMN in used.columns else None)
+        model, noise_at = _fit_gp(points, values, sems, target, offset, domain, kernel_theta, stored)
+        options["kernel_theta"] = model.theta.tolist()
+    else:
+        y, _ = _to_target(values, None, target, offset)
+        model = _build_model(method, points, y, domain, smoothing, source)
+    keep = [c for c in (*COORDINATE_COLUMNS, value_column, sem_column, VALUE_COLUMN, "status",
+                        "flags", "regime") if c in used.columns]
+    training = used[list(dict.fromkeys(keep))].reset_index(drop=True)
+    if noise_at is not None:
+        training[NOISE_AT_COLUMN] = noise_at
     return Surrogate(
         method=method, target=target,
-        training=used[[c for c in (*COORDINATE_COLUMNS, VALUE_COLUMN, SEM_COLUMN, "regime")
-                       if c in used.columns]].reset_index(drop=True),
+        training=training,
         domain=domain, offset_ns_m=float(offset),
-        excluded=_describe_rows(excluded), holes=holes,
-        options={"log_offset_fraction": log_offset_fraction, "smoothing": smoothing,
-                 "allow_holes": allow_holes},
-        _model=model,
+        excluded=_describe_rows(excluded), holes=holes, options=options, _model=model,
+        value_column=value_column, sem_column=sem_column,
     )
 
 
+def _fit_sems(used: pd.DataFrame, method: str, sem_column: str, source: str) -> np.ndarray | None:
+    """The SEMs of the fitted rows, shape (n,); None when there are none (splines only)."""
+    if sem_column not in used.columns:
+        if method == "gp":
+            raise TableError(f"C_eq table {source}: gp fits each case with its SEM, and the "
+                             f"table has no column {sem_column}")
+        return None
+    sems = used[sem_column].to_numpy(dtype=float)
+    if not np.all(np.isfinite(sems) & (sems >= 0)):
+        if method == "gp":
+            raise TableError(f"C_eq table {source}: gp needs a finite SEM >= 0 in every fitted "
+                             f"row; {sem_column} is not in {int(np.sum(~np.isfinite(sems)))} row(s)")
+        return None
+    return sems
+
+
+def _target_offset(values: np.ndarray, sems: np.ndarray | None, target: str,
+                   log_offset_fraction: float) -> float:
+    """c0 of the target, value units: 0 for "linear"; with SEMs (gp), the smallest positive SEM
+    for "log" and the median SEM for "asinh"; else ``log_offset_fraction * max |C|``."""
+    if target == "linear":
+        return 0.0
+    positive = sems[sems > 0] if sems is not None else np.array([])
+    if positive.size and target == "log":
+        return float(positive.min())
+    if positive.size and target == "asinh":
+        return float(np.median(positive))
+    offset = log_offset_fraction * float(np.max(np.abs(values)))
+    return offset if offset > 0.0 else 1.0  # every value 0: any offset gives the same surrogate
+
+
+def _to_target(values: np.ndarray, sems: np.ndarray | None, target: str, offset: float,
+               at: np.ndarray | None = None):
+    """(y, noise variance of y) of values and SEMs; the noise to first order in SEM, with the
+    transform's slope taken at ``at`` (default: the values; None without SEMs). "log" fits
+    max(C, 0): a slightly negative mean near zero is zero."""
+    values = np.asarray(values, dtype=float)
+    at = values if at is None else np.asarray(at, dtype=float)
+    if target == "log":
+        y, slope = np.log(np.maximum(values, 0.0) + offset), 1.0 / (np.maximum(at, 0.0) + offset)
+    elif target == "asinh":
+        y, slope = np.arcsinh(values / offset), 1.0 / np.hypot(at, offset)
+    else:
+        y, slope = values, np.ones_like(values)
+    return y, (None if sems is None else (slope * np.asarray(sems, dtype=float)) ** 2)
+
+
+def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: str, offset: float,
+            domain: dict, kernel_theta=None, noise_at=None):
+    """The GP of a surrogate and the values its noise was propagated at, shape (n,).
+
+    The slope of the target transform that turns a SEM into a noise in y is taken at the GP's
+    own fitted value, not at the noisy observation: at the observation, a draw above the truth
+    gets a smaller noise in a log-like y than one below it, and the fit leans upward (on
+    synthetic tables with 30 % noise at 1 g this put the GP a standard deviation above the truth
+    there on average; at the fitted value it is not). One fit at the observations gives the
+    fitted values, a second fit uses them, its optimiser started from the first fit's kernel.
+    ``noise_at`` given (a reload) skips the first fit.
+    """
+    x = _scale_u(_to_u(*points.T), domain)
+    if noise_at is None:
+        y, noise = _to_target(values, sems, target, offset)
+        first = fit_gaussian_process(x, y, noise, theta=kernel_theta)
+        noise_at = _from_target(first(x), target, offset)
+        start = first.theta
+    else:
+        start = None
+    y, noise = _to_target(values, sems, target, offset, at=noise_at)
+    return (fit_gaussian_process(x, y, noise, theta=kernel_theta, start=start),
+            np.asarray(noise_at, dtype=float))
+
+
 def _target_values(values: np.ndarray, target: str, log_offset_fraction: float):
-    """(c0, fitted y) of C_eq values: ln(C + c0) with c0 = fraction * max C, or C itself."""
-    if target != "log":
-        return 0.0, values
-    offset = log_offset_fraction * values.max()
-    if offset <= 0.0:
-        offset = 1.0  # every value is 0: any positive offset gives the same (flat) surrogate
-    return offset, np.log(values + offset)
+    """(c0, fitted y) of C_eq values without SEMs (the spline targets)."""
+    offset = _target_offset(values, None, target, log_offset_fraction)
+    return offset, _to_target(values, None, target, offset)[0]
 
 
 def refit_values(surrogate: Surrogate, values) -> Surrogate:
-    """The same surrogate (method, target, options, points) fitted to new C_eq values.
+    """The same surrogate (method, target, options, points) fitted to new values.
 
     The points are the ones :func:`fit_surrogate` already checked, so the table is not validated
-    again (the bootstrap refits hundreds of times); the values must be finite and >= 0.
+    again (the bootstrap refits hundreds of times); the values must be finite and >= 0. A ``gp``
+    keeps its kernel's hyperparameters, its c0 and its rows' noise: only the values change.
 
     Parameters
     ----------
     surrogate : Surrogate
     values : array_like, shape (n_rows,)
-        C_eq_coupon at the training rows, in their order, N*s/m.
+        The fitted column at the training rows, in their order (N*s/m for C_eq).
 
     Raises
     ------
@@ -309,26 +590,35 @@ def refit_values(surrogate: Surrogate, values) -> Surrogate:
     """
     values = np.asarray(values, dtype=float)
     if values.shape != (len(surrogate.training),) or not np.all(np.isfinite(values) & (values >= 0)):
-        raise TableError(f"refit needs {len(surrogate.training)} finite C_eq >= 0, got shape {values.shape}")
+        raise TableError(f"refit needs {len(surrogate.training)} finite values >= 0, got shape {values.shape}")
     points = surrogate.training[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
-    offset, y = _target_values(values, surrogate.target, surrogate.options.get(
-        "log_offset_fraction", DEFAULT_LOG_OFFSET_FRACTION))
     training = surrogate.training.copy()
-    training[VALUE_COLUMN] = values
-    model = _build_model(surrogate.method, points, y, surrogate.domain,
-                         surrogate.options.get("smoothing", 0.0), "refit")
+    training[surrogate.value_column] = values
+    if surrogate.method == "gp":
+        offset = surrogate.offset_ns_m
+        y, _ = _to_target(values, None, surrogate.target, offset)
+        model = surrogate._model.refit(y, surrogate._model.noise)
+    else:
+        offset, y = _target_values(values, surrogate.target, surrogate.options.get(
+            "log_offset_fraction", DEFAULT_LOG_OFFSET_FRACTION))
+        model = _build_model(surrogate.method, points, y, surrogate.domain,
+                             surrogate.options.get("smoothing", 0.0), "refit")
     return Surrogate(method=surrogate.method, target=surrogate.target, training=training,
                      domain=dict(surrogate.domain), offset_ns_m=float(offset),
                      excluded=list(surrogate.excluded), holes=list(surrogate.holes),
-                     options=dict(surrogate.options), _model=model)
+                     options=dict(surrogate.options), _model=model,
+                     value_column=surrogate.value_column, sem_column=surrogate.sem_column)
 
 
-def _check_options(method: str, target: str, log_offset_fraction: float, smoothing: float) -> None:
-    """Refuse unknown methods and targets and non-positive offsets."""
+def _check_options(method: str, target: str, log_offset_fraction: float, smoothing: float,
+                   rows: str = "ok") -> None:
+    """Refuse unknown methods, targets and rows and non-positive offsets."""
     if method not in METHODS:
         raise TableError(f"surrogate method {method!r} is unknown; choose one of {', '.join(METHODS)}")
     if target not in TARGETS:
         raise TableError(f"surrogate target {target!r} is unknown; choose one of {', '.join(TARGETS)}")
+    if rows not in ROWS:
+        raise TableError(f"surrogate rows {rows!r} is unknown; choose one of {', '.join(ROWS)}")
     if not (np.isfinite(log_offset_fraction) and log_offset_fraction > 0):
         raise TableError(f"log_offset_fraction must be > 0, got {log_offset_fraction!r}")
     if not (np.isfinite(smoothing) and smoothing >= 0):
@@ -393,10 +683,10 @@ def _check_holes(holes: list, method: str, allow_holes: bool, excluded: pd.DataF
     where = f"C_eq table {source}: the status-ok rows leave {len(holes)} grid point(s) empty{status}: {shown}{more}"
     if method in _TENSOR_METHODS:
         raise TableError(f"{where}; {method} needs a complete grid: rerun those cases, "
-                         f"or use rbf_thin_plate with allow_holes")
+                         f"or use rbf_thin_plate or gp with allow_holes")
     if not allow_holes:
-        raise TableError(f"{where}; rerun those cases, or fit rbf_thin_plate with allow_holes=True "
-                         f"to interpolate across them explicitly")
+        raise TableError(f"{where}; rerun those cases, or fit {method if method in _BRIDGING_METHODS else 'rbf_thin_plate'} "
+                         f"with allow_holes=True to bridge them explicitly")
 
 
 def _describe_rows(excluded: pd.DataFrame) -> list[dict]:
@@ -484,7 +774,11 @@ def save_surrogate(surrogate: Surrogate, path: str | Path) -> None:
     """Write a surrogate as JSON: its options, its training rows and check values.
 
     Nothing executable is stored; :func:`load_surrogate` refits from the training rows and
-    compares its predictions with the stored check values.
+    compares its predictions with the stored check values. A ``gp`` stores its fitted kernel's
+    log-hyperparameters in ``options["kernel_theta"]`` (and the kernel as text in ``gp_kernel``
+    for a reader); its training rows keep their SEMs, status and flags, so the reload conditions
+    the same kernel (``optimizer=None``) on the same values and noise, and the check values
+    include its standard uncertainty.
 
     Parameters
     ----------
@@ -501,12 +795,17 @@ def save_surrogate(surrogate: Surrogate, path: str | Path) -> None:
         "options": surrogate.options,
         "domain": {k: list(v) for k, v in surrogate.domain.items()},
         "offset_ns_m": surrogate.offset_ns_m,
+        "value_column": surrogate.value_column,
+        "sem_column": surrogate.sem_column,
         "training": {c: surrogate.training[c].tolist() for c in surrogate.training.columns},
         "excluded": surrogate.excluded,
         "holes": [list(h) for h in surrogate.holes],
         "check_points": points.tolist(),
         "check_values_ns_m": surrogate._predict(points[:, 0], points[:, 1], points[:, 2]).tolist(),
     }
+    if surrogate.method == "gp":
+        document["gp_kernel"] = surrogate._model.to_dict()["kernel"]
+        document["check_uncertainty_ns_m"] = surrogate.predict_with_uncertainty(*points.T)[1].tolist()
     Path(path).write_text(json.dumps(document, indent=1, default=_json_default))
 
 
@@ -541,13 +840,18 @@ def load_surrogate(path: str | Path, rtol: float = 1e-8) -> Surrogate:
         document = json.loads(path.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise TableError(f"surrogate file {path}: cannot be read ({exc})") from exc
-    if document.get("format") != _FILE_FORMAT or document.get("version") != _FILE_VERSION:
-        raise TableError(f"surrogate file {path}: not a {_FILE_FORMAT} version {_FILE_VERSION} file")
+    if document.get("format") != _FILE_FORMAT or document.get("version") not in _READABLE_VERSIONS:
+        raise TableError(f"surrogate file {path}: not a {_FILE_FORMAT} file of version "
+                         f"{' or '.join(map(str, _READABLE_VERSIONS))}")
     options = document["options"]
     surrogate = fit_surrogate(pd.DataFrame(document["training"]), method=document["method"],
                               target=document["target"], source=str(path),
                               log_offset_fraction=options["log_offset_fraction"],
-                              smoothing=options["smoothing"], allow_holes=options["allow_holes"])
+                              smoothing=options["smoothing"], allow_holes=options["allow_holes"],
+                              rows=options.get("rows", "ok"),
+                              value_column=document.get("value_column", VALUE_COLUMN),
+                              sem_column=document.get("sem_column", SEM_COLUMN),
+                              kernel_theta=options.get("kernel_theta"))
     surrogate.excluded = document["excluded"]
     surrogate.holes = [tuple(h) for h in document["holes"]]
     surrogate.options = options
@@ -555,6 +859,9 @@ def load_surrogate(path: str | Path, rtol: float = 1e-8) -> Surrogate:
     stored = np.array(document["check_values_ns_m"], dtype=float)
     refit = surrogate._predict(points[:, 0], points[:, 1], points[:, 2])
     scale = max(float(np.max(np.abs(stored))), 1e-300)
+    if "check_uncertainty_ns_m" in document:
+        refit = np.concatenate([refit, surrogate.predict_with_uncertainty(*points.T)[1]])
+        stored = np.concatenate([stored, np.array(document["check_uncertainty_ns_m"], dtype=float)])
     if not np.allclose(refit, stored, rtol=rtol, atol=rtol * scale):
         worst = float(np.max(np.abs(refit - stored)))
         raise TableError(f"surrogate file {path}: the refitted surrogate differs from the saved "
@@ -567,54 +874,142 @@ def load_surrogate(path: str | Path, rtol: float = 1e-8) -> Surrogate:
 
 
 def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
-                   targets: tuple[str, ...] = TARGETS,
+                   targets: tuple[str, ...] | None = None,
                    log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
-                   schemes: tuple[str, ...] = ("point", "plane")) -> pd.DataFrame:
-    """Leave-one-out cross-validation of every (method, target) on the usable rows.
+                   schemes: tuple[str, ...] = ("point", "plane"), rows: str | None = None,
+                   value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN) -> pd.DataFrame:
+    """Leave-one-out cross-validation of every (method, target) on the fitted rows.
 
     Two schemes:
 
     ``point``
-        Leave out one grid point, refit on the others, predict it. Only ``rbf_thin_plate``
-        can be refitted on a grid with one point missing.
+        Leave out one grid point, refit on the others, predict it. Only ``rbf_thin_plate`` and
+        ``gp`` can be refitted on a grid with one point missing.
     ``plane``
         Leave out every point of one interior level of one axis (e.g. all f = 500 Hz rows),
-        refit on the remaining complete grid, predict them. Every method can do this, so it is
-        the scheme that compares methods; it is pessimistic (the gap it opens is twice the
-        grid spacing).
+        refit on the remaining grid, predict them. Every method can do this on a complete grid,
+        so it is the scheme that compares methods; it is pessimistic (the gap it opens is twice
+        the grid spacing).
+
+    A ``gp`` is refitted in every fold, hyperparameters included.
 
     Parameters
     ----------
     table : pandas.DataFrame
-        A C_eq table whose usable rows form a complete grid.
-    methods, targets : tuple of str
-        The candidates.
+        A C_eq table.
+    methods : tuple of str
+        The candidates; ``gp`` is skipped when the table has no SEMs.
+    targets : tuple of str, optional
+        The targets tried with every method; by default ``log`` and ``linear`` for the splines
+        and the default target (``log``) for ``gp``.
     log_offset_fraction : float
         As in :func:`fit_surrogate`.
     schemes : tuple of str
-        The schemes to run (``point`` applies to rbf_thin_plate only).
+        The schemes to run (``point`` applies to rbf_thin_plate and gp only).
+    rows : str, optional
+        ``"ok"`` or ``"policy"`` for every method (the held-out rows and the fitted rows);
+        by default each method's own (:data:`METHOD_DEFAULTS`).
+    value_column, sem_column : str
+        As in :func:`fit_surrogate`.
 
     Returns
     -------
     pandas.DataFrame
-        One row per (method, target, scheme) with ``n_folds``, ``n_predictions``,
+        One row per (method, target, scheme) with ``rows``, ``n_folds``, ``n_predictions``,
         ``rms_rel_error``, ``max_rel_error`` (relative to max(|C|, 1e-3 max |C|)),
-        ``rms_abs_error_ns_m``, ``max_abs_error_ns_m`` and the (f, G, r) of the worst point.
-        Schemes with no fold (a 2-level grid has no interior level) are left out.
+        ``rms_abs_error_ns_m``, ``max_abs_error_ns_m``, the (f, G, r) of the worst point, and
+        with SEMs ``rms_error_per_sem`` (RMS of (prediction - value) / SEM: about 1 at best,
+        as the held-out value has its own noise) and, for ``gp``, ``z_mean``, ``z_std`` (of
+        the held-out values' z-scores against the prediction's uncertainty, its excess scatter
+        and the value's SEM, in the transformed target: 0 and 1 when calibrated),
+        ``coverage_68`` and ``coverage_95`` (fractions of held-out values inside the 68.3 %
+        and 95 % intervals). Schemes with no fold are left out.
     """
-    table = validate_ceq_table(table)
-    used, _ = split_usable(table)
-    used = used.reset_index(drop=True)
-    rows = []
+    rows_out = []
+    has_sems = sem_column in table.columns
     for method in methods:
-        for target in targets:
+        if method == "gp" and not has_sems:
+            continue
+        for target in (targets or (("log", "linear") if method in SPLINE_METHODS
+                                   else (METHOD_DEFAULTS[method][0],))):
             for scheme in schemes:
-                if scheme == "point" and method != "rbf_thin_plate":
+                if scheme == "point" and method not in _BRIDGING_METHODS:
                     continue
-                row = _cross_validate_one(used, method, target, scheme, log_offset_fraction)
-                if row is not None:
-                    rows.append(row)
-    return pd.DataFrame(rows)
+                points = loo_predictions(table, method, target, scheme, rows=rows,
+                                         log_offset_fraction=log_offset_fraction,
+                                         value_column=value_column, sem_column=sem_column)
+                if points.empty:
+                    continue
+                rows_out.append(_summarise_folds(points, method, target, scheme))
+    return pd.DataFrame(rows_out)
+
+
+def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
+                    scheme: str = "point", rows: str | None = None,
+                    log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
+                    value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
+                    fit_rows: str | None = None) -> pd.DataFrame:
+    """Every held-out row's prediction in one cross-validation scheme (see :func:`cross_validate`).
+
+    ``rows`` chooses the rows that are held out in turn; ``fit_rows`` (default: ``rows``) the
+    rows of the rest that each fold fits, so that a spline fitted to the status-ok rows can be
+    scored on every case the fit policy keeps. A held-out row outside the fold's domain is left
+    out (count them with ``n_predictions``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per held-out prediction: ``fold``, the coordinates, ``status`` and ``flags``
+        (when the table has them), ``value``, ``sem`` (NaN without SEMs), ``predicted``, and for
+        ``gp`` ``u`` (the prediction's standard uncertainty, value units, without the excess
+        scatter), ``z`` (in the transformed target, see :func:`cross_validate`), ``in_68`` and
+        ``in_95``. Empty when no fold can be fitted.
+    """
+    default_target, default_rows = METHOD_DEFAULTS[method]
+    target = default_target if target is None else target
+    rows = default_rows if rows is None else rows
+    fit_rows = rows if fit_rows is None else fit_rows
+    table = validate_ceq_table(table)
+    if rows == "policy":
+        used, _ = split_for_fit(table, value_column, sem_column)
+    else:
+        used, _ = split_usable(table)
+    used = used.reset_index(drop=True)
+    out = []
+    for fold, held in enumerate(_folds(used, scheme)):
+        try:
+            surrogate = fit_surrogate(used.loc[~held], method=method, target=target, rows=fit_rows,
+                                      log_offset_fraction=log_offset_fraction,
+                                      allow_holes=(scheme == "point" or method in _BRIDGING_METHODS),
+                                      value_column=value_column, sem_column=sem_column)
+        except TableError:
+            continue  # this fold leaves too little to fit (e.g. an axis of one level)
+        test = used.loc[held]
+        pts = test[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
+        inside = np.ones(len(test), dtype=bool)
+        for i, name in enumerate(COORDINATE_COLUMNS):  # a held-out edge plane is outside
+            lo, hi = surrogate.domain[name]
+            inside &= (pts[:, i] >= lo) & (pts[:, i] <= hi)
+        if not inside.any():
+            continue
+        test, pts = test.loc[inside], pts[inside]
+        frame = test[[c for c in (*COORDINATE_COLUMNS, "status", "flags") if c in test.columns]].copy()
+        frame.insert(0, "fold", fold)
+        frame["value"] = test[value_column].to_numpy(dtype=float)
+        frame["sem"] = (test[sem_column].to_numpy(dtype=float) if sem_column in test.columns
+                        else np.nan)
+        frame["predicted"] = surrogate._predict(*pts.T)
+        if method == "gp":
+            frame["u"] = surrogate.predict_with_uncertainty(*pts.T)[1]
+            mu, sd = surrogate._model.predict(surrogate._model_input(*pts.T), include_white=True)
+            y, noise = _to_target(frame["value"].to_numpy(), frame["sem"].to_numpy(),
+                                  surrogate.target, surrogate.offset_ns_m,
+                                  at=frame["predicted"].to_numpy())
+            frame["z"] = (y - mu) / np.sqrt(sd**2 + noise)
+            frame["in_68"] = np.abs(frame["z"]) <= 1.0
+            frame["in_95"] = np.abs(frame["z"]) <= float(norm.ppf(0.975))
+        out.append(frame)
+    return pd.concat(out, ignore_index=True) if out else pd.DataFrame()
 
 
 def _folds(used: pd.DataFrame, scheme: str) -> list[np.ndarray]:
@@ -628,42 +1023,33 @@ def _folds(used: pd.DataFrame, scheme: str) -> list[np.ndarray]:
     return folds
 
 
-def _cross_validate_one(used: pd.DataFrame, method: str, target: str, scheme: str,
-                        log_offset_fraction: float) -> dict | None:
-    """Errors of one (method, target, scheme); None when the scheme has no fold."""
-    folds = _folds(used, scheme)
-    truth, predicted, where = [], [], []
-    for held in folds:
-        train = used.loc[~held]
-        try:
-            surrogate = fit_surrogate(train, method=method, target=target,
-                                      log_offset_fraction=log_offset_fraction,
-                                      allow_holes=(scheme == "point"))
-        except TableError:
-            continue  # this fold leaves too little to fit (e.g. an axis of one level)
-        test = used.loc[held]
-        pts = test[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
-        predicted.append(surrogate._predict(pts[:, 0], pts[:, 1], pts[:, 2]))
-        truth.append(test[VALUE_COLUMN].to_numpy(dtype=float))
-        where.append(pts)
-    if not predicted:
-        return None
-    n_folds = len(predicted)
-    truth, predicted, where = np.concatenate(truth), np.concatenate(predicted), np.vstack(where)
+def _summarise_folds(points: pd.DataFrame, method: str, target: str, scheme: str) -> dict:
+    """One row of :func:`cross_validate` from :func:`loo_predictions`' rows."""
+    truth, predicted = points["value"].to_numpy(), points["predicted"].to_numpy()
+    where = points[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
     error = np.abs(predicted - truth)
-    floor = RELATIVE_ERROR_FLOOR * float(np.max(np.abs(used[VALUE_COLUMN])))
+    floor = RELATIVE_ERROR_FLOOR * float(np.max(np.abs(truth)))
     relative = error / np.maximum(np.abs(truth), max(floor, 1e-300))
     worst = int(np.argmax(relative))
-    return {
+    sem = points["sem"].to_numpy(dtype=float)
+    per_sem = (predicted - truth) / sem
+    per_sem = per_sem[np.isfinite(per_sem)]
+    row = {
         "method": method, "target": target, "scheme": scheme,
-        "n_folds": n_folds, "n_predictions": int(truth.size),
+        "n_folds": int(points["fold"].nunique()), "n_predictions": int(truth.size),
         "rms_rel_error": float(np.sqrt(np.mean(relative**2))),
         "max_rel_error": float(relative[worst]),
         "rms_abs_error_ns_m": float(np.sqrt(np.mean(error**2))),
         "max_abs_error_ns_m": float(error.max()),
         "worst_freq_hz": float(where[worst, 0]), "worst_accel_g": float(where[worst, 1]),
         "worst_fill_pct": float(where[worst, 2]),
+        "rms_error_per_sem": float(np.sqrt(np.mean(per_sem**2))) if per_sem.size else np.nan,
     }
+    if "z" in points.columns:
+        z = points["z"].to_numpy(dtype=float)
+        row.update(z_mean=float(np.mean(z)), z_std=float(np.std(z, ddof=1)) if z.size > 1 else np.nan,
+                   coverage_68=float(points["in_68"].mean()), coverage_95=float(points["in_95"].mean()))
+    return row
 
 
 def select_surrogate(cv: pd.DataFrame) -> tuple[str, str]:
@@ -691,3 +1077,4 @@ def select_surrogate(cv: pd.DataFrame) -> tuple[str, str]:
         return DEFAULT_METHOD, DEFAULT_TARGET
     best = plane.sort_values(["rms_rel_error", "max_rel_error"]).iloc[0]
     return str(best["method"]), str(best["target"])
+

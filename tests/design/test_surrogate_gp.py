@@ -1,0 +1,277 @@
+"""The Gaussian-process surrogate: calibration on tables of known truth and noise, holes,
+flagged cases, save/load, refits and the generic value column.
+
+The synthetic tables lie on the reference grid (5 f x 3 G x 4 r). Their truth is the analytic
+``onset`` of test_surrogate (C_eq ~ f^1.1, a steep rise above 1 g, a fill optimum) scaled to the
+order of the DEM's coupon values (1.2-410 N*s/m on the grid); their noise is of the order the
+DEM campaign reports (tests/fixtures/ceq_table_dem_default.csv: 2-5 % at 5 and 10 g, 4-63 % at
+1 g): SEMs of 5 % at 5 and 10 g and of 30 % at 1 g, where the cases are flagged
+(``not_resolved`` or ``target_not_reached``) and the spline surrogates leave them out.
+"""
+
+import itertools
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pidpipe.design.surrogate import (
+    NOISE_AT_COLUMN,
+    cross_validate,
+    fit_surrogate,
+    load_surrogate,
+    loo_predictions,
+    refit_values,
+    save_surrogate,
+)
+from pidpipe.errors import TableError
+
+F_HZ = (50.0, 100.0, 500.0, 750.0, 1000.0)
+G_G = (1.0, 5.0, 10.0)
+R_PCT = (25.0, 50.0, 75.0, 90.0)
+VALUE, SEM = "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m"
+
+
+def truth(f, g, r):
+    """C_eq of the coupon, N*s/m."""
+    f, g, r = (np.asarray(a, dtype=float) for a in (f, g, r))
+    return 80.0 * (f / 100.0) ** 1.1 * (1.0 - np.exp(-(g - 0.5) / 3.0)) * (r / 100.0) * np.exp(-r / 120.0)
+
+
+def noisy_table(seed: int, f=F_HZ, g=G_G, r=R_PCT) -> pd.DataFrame:
+    """The truth on the grid plus Gaussian noise of the stated SEMs; 1 g rows flagged."""
+    table = pd.DataFrame(list(itertools.product(f, g, r)), columns=["freq_hz", "accel_g", "fill_pct"])
+    exact = truth(table["freq_hz"], table["accel_g"], table["fill_pct"])
+    low = table["accel_g"].to_numpy() == 1.0
+    sem = np.where(low, 0.30, 0.05) * exact
+    table[VALUE] = exact + sem * np.random.default_rng(seed).standard_normal(len(table))
+    table[SEM] = sem
+    table["status"] = np.where(low, "flagged", "ok")
+    table["flags"] = np.where(low, np.where(table["fill_pct"] < 60, "not_resolved", "target_not_reached"), "")
+    return table
+
+
+def random_points(n, rng):
+    """Off-grid points filling the reference domain: f log-uniform, G and r uniform."""
+    return (np.exp(rng.uniform(np.log(50), np.log(1000), n)), rng.uniform(1, 10, n),
+            rng.uniform(25, 90, n))
+
+
+@pytest.fixture(scope="module")
+def coverage():
+    """Coverage of the truth by the GP's latent 68.3 % and 95 % intervals on 40 synthetic
+    tables: {(where, level): one fraction per table}, where is ``grid`` (the 60 grid points),
+    ``off 5-10 g`` and ``off 1-5 g`` (random off-grid points between the 5 and 10 g levels and
+    between the 1 and 5 g levels). Each table's GP is fitted from scratch, hyperparameters
+    included."""
+    n_tables, n_off = 40, 90
+    rng = np.random.default_rng(7)
+    out = {}
+    for seed in range(n_tables):
+        table = noisy_table(seed)
+        surrogate = fit_surrogate(table, method="gp")
+        assert len(surrogate.training) == 60  # the flagged 1 g rows are fitted
+        off = random_points(n_off, rng)
+        high = off[1] >= 5.0
+        where = {"grid": (table["freq_hz"], table["accel_g"], table["fill_pct"]),
+                 "off 5-10 g": tuple(a[high] for a in off),
+                 "off 1-5 g": tuple(a[~high] for a in off)}
+        for name, points in where.items():
+            exact = truth(*points)
+            for level in (0.6827, 0.95):
+                lower, upper = surrogate.predict_interval(*points, level=level)
+                out.setdefault((name, level), []).append(
+                    (np.sum((exact >= lower) & (exact <= upper)), exact.size))
+    return out
+
+
+def _check_coverage(counts, level):
+    """Mean coverage within 3 times its scatter of the nominal level. Points of one table share
+    one fit, so their misses are correlated: the scatter of the mean coverage is taken from the
+    spread between tables, and never below the binomial scatter of the pooled points."""
+    hits, sizes = np.array(counts, dtype=float).T
+    fractions = hits / sizes
+    mean = hits.sum() / sizes.sum()
+    scatter = max(fractions.std(ddof=1) / np.sqrt(fractions.size),
+                  np.sqrt(level * (1 - level) / sizes.sum()))
+    assert 3.0 * scatter < 0.08  # the test can tell 68 % from 60 % or 76 %
+    assert abs(mean - level) <= 3.0 * scatter, (level, mean, scatter)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("where", ["grid", "off 5-10 g"])
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_intervals_cover_the_truth_at_their_nominal_rates(coverage, where, level):
+    _check_coverage(coverage[(where, level)], level)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "between the 1 and 5 g levels the truth's onset bends and the grid has no level to show "
+    "it: the GP's intervals there are too narrow (measured on these tables: 47.9 +- 3.8 % of "
+    "the truth inside the 68.3 % intervals and 86.8 +- 2.6 % inside the 95 % ones, against "
+    "69.0 and 96.3 % between 5 and 10 g); a G level at 2-3 g would let the fit see the bend"))
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_intervals_between_1_and_5_g_are_too_narrow(coverage, level):
+    _check_coverage(coverage[("off 1-5 g", level)], level)
+
+
+def test_a_hole_is_bridged_with_a_larger_uncertainty_than_its_neighbours():
+    table = noisy_table(3)
+    hole = (500.0, 5.0, 50.0)
+    at_hole = ((table["freq_hz"] == hole[0]) & (table["accel_g"] == hole[1])
+               & (table["fill_pct"] == hole[2])).to_numpy()
+    table.loc[at_hole, ["status", VALUE, SEM]] = ["failed", np.nan, np.nan]
+    with pytest.raises(TableError, match="leave 1 grid point"):
+        fit_surrogate(table, method="gp")
+    surrogate = fit_surrogate(table, method="gp", allow_holes=True)
+    assert surrogate.holes == [hole]
+    # its neighbours along f and r, measured with the same 5 % SEM (the ones along G have 30 %
+    # at 1 g); relative uncertainties, as C_eq differs by 10x between them
+    neighbours = np.array([(100.0, 5.0, 50.0), (750.0, 5.0, 50.0), (500.0, 5.0, 25.0),
+                           (500.0, 5.0, 75.0)])
+    value, u = surrogate.predict_with_uncertainty(*hole)
+    _, u_neighbours = surrogate.predict_with_uncertainty(*neighbours.T)
+    # measured: 3.5 % at the hole, 2.8-3.4 % (mean 3.1 %) at the neighbours; the neighbours
+    # nearer an edge of the domain have more than the interior ones, so the mean is compared
+    assert u / value > np.mean(u_neighbours / surrogate.predict(*neighbours.T))
+    # the same point measured: 2.8 % (the hole widens it 1.23 times; 1.18 with seed 4)
+    full = fit_surrogate(noisy_table(3), method="gp")
+    assert u > 1.15 * full.predict_with_uncertainty(*hole)[1]
+    assert abs(value - truth(*hole)) < 3.0 * u
+
+
+def test_flagged_1g_cases_are_fitted_where_the_splines_bridge_a_hole():
+    # The splines fit status-ok rows only: with one 1 g case left ok they bridge 1 g from 5 g.
+    table = noisy_table(5)
+    keep_ok = ((table["accel_g"] == 1.0) & (table["freq_hz"] == 50.0) & (table["fill_pct"] == 25.0))
+    table.loc[keep_ok, ["status", "flags"]] = ["ok", ""]
+    gp = fit_surrogate(table, method="gp")
+    rbf = fit_surrogate(table, method="rbf_thin_plate", allow_holes=True)
+    assert len(gp.training) == 60 and len(rbf.training) == 41
+    f, r = np.meshgrid(np.linspace(450, 500, 6), np.linspace(25, 90, 6))
+    g = np.ones_like(f)
+    exact = truth(f, g, r)
+    value, u = gp.predict_with_uncertainty(f, g, r)
+    gp_error = np.abs(value - exact)
+    rbf_error = np.abs(rbf.predict(f, g, r) - exact)
+    assert np.all(gp_error < 3.0 * u)
+    # measured: 3.7 against 16.3 N*s/m RMS, the GP within 2.3 u; the RBF is high everywhere
+    # (bridged from 5 g)
+    assert np.sqrt(np.mean(gp_error**2)) < 0.4 * np.sqrt(np.mean(rbf_error**2))
+    assert np.all(rbf.predict(f, g, r) > exact)
+
+
+def test_save_and_load_rebuild_the_same_gp_without_optimising(tmp_path):
+    surrogate = fit_surrogate(noisy_table(1), method="gp")
+    path = tmp_path / "surrogate.json"
+    save_surrogate(surrogate, path)
+    document = json.loads(path.read_text())
+    assert len(document["options"]["kernel_theta"]) == 5  # amplitude, 3 length scales, white
+    assert "Matern" in document["gp_kernel"]
+    assert NOISE_AT_COLUMN in document["training"]
+    loaded = load_surrogate(path)
+    assert loaded._model.regressor.optimizer is None
+    np.testing.assert_array_equal(loaded._model.theta, surrogate._model.theta)
+    f, g, r = random_points(200, np.random.default_rng(2))
+    for a, b in zip(loaded.predict_with_uncertainty(f, g, r), surrogate.predict_with_uncertainty(f, g, r)):
+        np.testing.assert_allclose(a, b, rtol=1e-10)
+    document["check_uncertainty_ns_m"][3] *= 1.1
+    path.write_text(json.dumps(document))
+    with pytest.raises(TableError, match="differs from the saved one"):
+        load_surrogate(path)
+
+
+def test_refit_on_new_values_keeps_the_kernel_and_the_noise():
+    surrogate = fit_surrogate(noisy_table(2), method="gp")
+    values = truth(surrogate.training["freq_hz"], surrogate.training["accel_g"],
+                   surrogate.training["fill_pct"])
+    again = refit_values(surrogate, values)
+    np.testing.assert_array_equal(again._model.theta, surrogate._model.theta)
+    np.testing.assert_array_equal(again._model.noise, surrogate._model.noise)
+    point = (300.0, 3.0, 60.0)
+    assert again.predict(*point) != surrogate.predict(*point)
+    # the uncertainty depends on where the points are and on their noise, not on the values
+    assert (again.predict_with_uncertainty(*point)[1] / again.predict(*point)
+            == pytest.approx(surrogate.predict_with_uncertainty(*point)[1] / surrogate.predict(*point), rel=0.2))
+
+
+def test_any_value_column_with_its_sem_column_can_be_fitted(tmp_path):
+    table = noisy_table(4)
+    table["m_eff_cell_kg"] = 1e-6 * table[VALUE] + 2e-4
+    table["m_eff_cell_sem_kg"] = 1e-6 * table[SEM]
+    surrogate = fit_surrogate(table, method="gp", value_column="m_eff_cell_kg",
+                              sem_column="m_eff_cell_sem_kg")
+    point = (300.0, 7.0, 60.0)
+    value, u = surrogate.predict_with_uncertainty(*point)
+    assert abs(value - (1e-6 * truth(*point) + 2e-4)) < 3 * u
+    assert 0 < u < 1e-5
+    path = tmp_path / "m_eff.json"
+    save_surrogate(surrogate, path)
+    loaded = load_surrogate(path)
+    assert loaded.value_column == "m_eff_cell_kg" and loaded.predict(*point) == pytest.approx(value, rel=1e-10)
+
+
+def test_splines_have_no_uncertainty_and_gp_needs_sems():
+    table = noisy_table(0)
+    with pytest.raises(TableError, match="no uncertainty of its own"):
+        fit_surrogate(table, method="rbf_thin_plate", allow_holes=True).predict_with_uncertainty(300, 5, 50)
+    with pytest.raises(TableError, match="needs the SEM column ceq_coupon_sem_ns_m"):
+        fit_surrogate(table.drop(columns=[SEM]), method="gp")
+    with pytest.raises(ValueError, match="level"):
+        fit_surrogate(table, method="gp").predict_interval(300, 5, 50, level=1.5)
+
+
+def test_leave_one_out_of_the_gp_reports_z_scores_and_coverage():
+    table = noisy_table(6, f=(50.0, 500.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 90.0))
+    points = loo_predictions(table, "gp")
+    assert len(points) == 18 and set(points["status"]) == {"ok", "flagged"}
+    assert np.all(np.isfinite(points["z"])) and np.all(points["u"] > 0)
+    cv = cross_validate(table, methods=("rbf_thin_plate", "gp"), schemes=("point",), rows="policy")
+    gp = cv.set_index("method").loc["gp"]
+    assert gp["n_predictions"] == 18 and 0.0 <= gp["coverage_68"] <= gp["coverage_95"] <= 1.0
+    assert 0.3 < gp["z_std"] < 3.0 and gp["rms_error_per_sem"] > 0
+    rbf = cv[cv["method"] == "rbf_thin_plate"]
+    assert list(rbf["target"]) == ["log", "linear"] and rbf["z_std"].isna().all()
+
+
+@pytest.mark.slow
+def test_leave_one_out_z_scores_on_the_dem_campaign_table_are_calibrated():
+    # The default campaign's DEM table (tests/fixtures/README.md), every case the fit policy keeps
+    # held out in turn. For 60 z-scores of a calibrated model the mean scatters by 1/sqrt(60) =
+    # 0.13 and the standard deviation by 1/sqrt(2 * 59) = 0.09: the bounds are 3 of those.
+    # Measured: z mean 0.02, std 0.87; RMS error 2.28 case SEMs against 5.13 for the RBF
+    # fitted to the same rows and 116 for the RBF fitted to the ok rows only.
+    from pathlib import Path
+
+    from pidpipe.design.ceq_table import read_ceq_table
+
+    table = read_ceq_table(Path(__file__).parents[1] / "fixtures" / "ceq_table_dem_default.csv")
+    gp = loo_predictions(table, "gp")
+    assert len(gp) == 60 and (gp["status"] == "flagged").sum() == 17
+    assert abs(gp["z"].mean()) < 3 / np.sqrt(60)
+    assert abs(gp["z"].std(ddof=1) - 1.0) < 3 / np.sqrt(2 * 59)
+
+    def rms_per_sem(points):
+        return np.sqrt(np.mean(((points["predicted"] - points["value"]) / points["sem"]) ** 2))
+
+    rbf_policy = loo_predictions(table, "rbf_thin_plate", rows="policy")
+    rbf_ok = loo_predictions(table, "rbf_thin_plate", rows="policy", fit_rows="ok")
+    assert rms_per_sem(gp) < 0.6 * rms_per_sem(rbf_policy) < 0.6 * rms_per_sem(rbf_ok)
+
+
+def test_uncertainty_interval_and_scatter_agree():
+    surrogate = fit_surrogate(noisy_table(8), method="gp")
+    f, g, r = random_points(50, np.random.default_rng(3))
+    value, u = surrogate.predict_with_uncertainty(f, g, r)
+    lower, upper = surrogate.predict_interval(f, g, r, level=0.6827, clip=False)
+    np.testing.assert_allclose(u, 0.5 * (upper - lower), rtol=1e-3)  # 0.6827 vs erf(1/sqrt 2)
+    np.testing.assert_allclose(value, surrogate.predict(f, g, r))
+    assert np.all((lower < value) & (value < upper))  # the median of a log-normal interval
+    _, u_scatter = surrogate.predict_with_uncertainty(f, g, r, include_scatter=True)
+    assert np.all(u_scatter >= u)
+    wide = surrogate.predict_interval(f, g, r, level=0.95)
+    assert np.all((wide[0] <= np.maximum(lower, 0.0)) & (wide[1] >= upper))
+    value, u = surrogate.predict_with_uncertainty(300.0, 5.0, 50.0)
+    assert value.shape == () and u.shape == ()
