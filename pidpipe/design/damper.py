@@ -54,7 +54,7 @@ def predictive(surrogate) -> Callable:
     A surrogate without ``predict_with_uncertainty`` gives its ``predict`` as the mean and a
     std of NaN: its uncertainty is not known from the surrogate alone.
     """
-    method = getattr(surrogate, "predict_with_uncertainty", None)
+    method = surrogate.predict_with_uncertainty if has_uncertainty(surrogate) else None
     if method is not None:
         def both(freq_hz, accel_g, fill_pct):
             mean, std = method(freq_hz, accel_g, fill_pct)
@@ -68,8 +68,10 @@ def predictive(surrogate) -> Callable:
 
 
 def has_uncertainty(surrogate) -> bool:
-    """Whether the surrogate gives a predictive standard uncertainty."""
-    return hasattr(surrogate, "predict_with_uncertainty")
+    """Whether the surrogate gives a predictive standard uncertainty: its ``has_uncertainty``
+    (:attr:`pidpipe.design.surrogate.Surrogate.has_uncertainty`: a fitted interpolant has the
+    method but no uncertainty), else whether it has ``predict_with_uncertainty`` at all."""
+    return bool(getattr(surrogate, "has_uncertainty", hasattr(surrogate, "predict_with_uncertainty")))
 
 
 @dataclass(frozen=True)

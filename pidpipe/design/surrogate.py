@@ -225,6 +225,12 @@ class Surrogate:
         values = self._predict(*(a.ravel() for a in arrays)).reshape(shape)
         return float(values) if values.ndim == 0 else values
 
+    @property
+    def has_uncertainty(self) -> bool:
+        """Whether :meth:`predict_with_uncertainty` answers: only the Gaussian process (``gp``)
+        has a predictive uncertainty of its own; the interpolants raise there."""
+        return self.method == "gp"
+
     def predict_with_uncertainty(self, freq_hz, accel_g, fill_pct,
                                  include_scatter: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Prediction and its standard uncertainty at (f, G, r) (method ``gp`` only).

@@ -20,6 +20,8 @@ from typing import Callable
 import numpy as np
 from scipy.stats import norm
 
+from pidpipe.design.damper import has_uncertainty
+
 Predict = Callable[..., np.ndarray]
 """C_eq_coupon(freq_hz, accel_g, fill_pct) -> N*s/m, broadcast over the inputs."""
 
@@ -49,7 +51,7 @@ class UncertainCeq:
     def from_surrogate(cls, surrogate, draws: int = 0, seed: int = 11) -> "UncertainCeq":
         """Wrap a surrogate: its own ``predict_with_uncertainty`` if it has one, else ``draws``
         bootstrap refits when its table has SEMs (none otherwise)."""
-        own = getattr(surrogate, "predict_with_uncertainty", None)
+        own = surrogate.predict_with_uncertainty if has_uncertainty(surrogate) else None
         refits = []
         if own is None and draws > 0:
             from pidpipe.design.bootstrap import has_sem, resampled_surrogates
