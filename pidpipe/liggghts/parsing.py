@@ -13,6 +13,10 @@ With several cells in one run (:mod:`pidpipe.replicate_cells`) the energy file h
 columns for each cell in turn, and a third file, the cell power file, has each cell's mean
 power over each cycle (:func:`read_shake_cycles`).
 
+The harmonics file holds the cycle means of the spheres' z force on the mesh times the cosine
+and the sine of the walls' phase; with several cells, the cell harmonics file has the same two
+columns for each cell (:func:`read_harmonic_sums`, :mod:`pidpipe.measurement.harmonics`).
+
 The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
 boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
 each, from which :mod:`pidpipe.liggghts.contact_energy` computes the elastic energy held in the contacts.
@@ -196,6 +200,70 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
     mesh = replace(total, wall_work_j=mesh_work, gross_work_j=mesh_gross,
                    dissipated_j=mesh_work - np.diff(total.energy_j))
     return cells, mesh
+
+
+HARMONICS_TOLERANCE = 1e-4
+"""Largest mismatch, in any cycle, between the mesh's first-harmonic sums and the sum of the
+cells', as a fraction of the mesh's mean amplitude sqrt(S_c^2 + S_s^2) (6 digits each)."""
+
+
+@dataclass(frozen=True)
+class HarmonicSums:
+    """Each cell's first-harmonic sums of its spheres' z force on the walls, cycle by cycle.
+
+    Attributes
+    ----------
+    cos_n_s, sin_n_s : ndarray, shape (n_cells, n_cycles)
+        S_c and S_s (:mod:`pidpipe.measurement.harmonics`), N s.
+    mesh_mismatch : float
+        With several cells, the largest difference over the cycles between the mesh's sums and
+        the cells' total, as a fraction of the mesh's mean amplitude; 0 for one cell (the cell
+        is the mesh).
+    """
+
+    cos_n_s: np.ndarray
+    sin_n_s: np.ndarray
+    mesh_mismatch: float
+
+
+def read_harmonic_sums(harmonics_path: str | Path, period_s: float, expected_cycles: int,
+                       n_cells: int, cell_harmonics_path: str | Path | None = None) -> HarmonicSums:
+    """The first-harmonic sums of a shake run: each cycle's mean of F cos and F sin times the period.
+
+    Parameters
+    ----------
+    harmonics_path : path
+        The harmonics file: step, the cycle means of the mesh's force (spheres on mesh, z, N)
+        times cos(theta) and times sin(theta).
+    period_s : float
+        Period of the base motion, s.
+    expected_cycles : int
+    n_cells : int
+    cell_harmonics_path : path, optional
+        With several cells (then required): step, then the two means of each cell.
+
+    Raises
+    ------
+    ParseError
+        Missing, truncated or inconsistent output.
+    """
+    mesh = read_ave_time(harmonics_path, 3)
+    if len(mesh) != expected_cycles:
+        raise ParseError(f"{harmonics_path} has {len(mesh)} rows, expected {expected_cycles} "
+                         "(truncated run?)")
+    mesh_sums = mesh[:, 1:3].T * period_s
+    if n_cells == 1:
+        return HarmonicSums(mesh_sums[:1], mesh_sums[1:], 0.0)
+    if cell_harmonics_path is None:
+        raise ValueError("several cells need their cell harmonics file")
+    cells = without_step_zero(read_ave_time(cell_harmonics_path, 1 + 2 * n_cells))
+    if not np.array_equal(cells[:, 0], mesh[:, 0]):
+        raise ParseError(f"the cycle ends of {cell_harmonics_path} and {harmonics_path} differ "
+                         f"({len(cells)} and {len(mesh)} rows; truncated run?)")
+    sums = cells[:, 1:].reshape(len(cells), n_cells, 2).transpose(2, 1, 0) * period_s
+    scale = float(np.mean(np.hypot(*mesh_sums)))
+    miss = float(np.max(np.abs(sums.sum(axis=1) - mesh_sums))) / scale if scale > 0 else 0.0
+    return HarmonicSums(sums[0], sums[1], miss)
 
 
 def _read_cycle_tables(power_path: str | Path, energy_path: str | Path, expected_cycles: int,

@@ -10,6 +10,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.cli import format_result
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.liggghts.pour import pour
+from pidpipe.liggghts.parsing import HARMONICS_TOLERANCE
 from pidpipe.liggghts.shake import LEDGER_TOLERANCE, run_case
 from tests.conftest import short_config
 
@@ -81,3 +82,19 @@ def test_one_cell_reports_no_spread(runs):
     assert math.isnan(alone[0]["ceq_cell_between_cells_sem_ns_m"])
     assert alone[0]["ceq_cell_sem_ns_m"] == alone[0]["ceq_cell_cycle_sem_ns_m"]
     assert alone[0]["cells"] == []
+
+
+def test_each_cells_first_harmonic_is_its_own_and_adds_up_to_the_mesh(runs):
+    """Each cell's first-harmonic sums (from its spheres' forces, pidpipe.measurement.harmonics):
+    the first cell's are those of the packing shaken alone (from the mesh's force, 6 digits
+    each), and the cells' add up to the mesh's."""
+    together, alone = runs
+    harmonics = together["harmonics"]
+    assert harmonics["cells_mesh_mismatch"] < HARMONICS_TOLERANCE
+    assert "harmonics_mesh_mismatch" not in together["flags"]
+    assert len(harmonics["cells"]) == 3
+    for key in ("cos_sums_n_s", "sin_sums_n_s"):
+        cell, single = np.array(harmonics[key][0]), np.array(alone[0]["harmonics"][key][0])
+        scale = np.mean(np.hypot(alone[0]["harmonics"]["cos_sums_n_s"][0],
+                                 alone[0]["harmonics"]["sin_sums_n_s"][0]))
+        assert np.max(np.abs(cell - single)) < 1e-5 * scale, key

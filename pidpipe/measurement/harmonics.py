@@ -1,0 +1,285 @@
+"""The spheres' force on the cell at the first harmonic of the base motion: effective mass and a
+force-based C_eq.
+
+The energy per cycle (:mod:`pidpipe.measurement.statistics`) sees only the part of the spheres'
+force in phase with the wall's velocity. Both engines also sum, every step of every cycle, the z
+force F_n that a cell's spheres put on its walls (floor, lid and side walls together; N, up
+positive; the negative of the walls' force on the spheres) against the wall's phase:
+
+    S_c = dt sum_n F_n cos(theta_n),    S_s = dt sum_n F_n sin(theta_n),
+    theta_n = omega (t_n + dt / 2),  t_n = n dt,
+
+n over the N = T / dt steps of the cycle (N.s). The walls move as z_w = W (cos(omega t) - 1)
+(LIGGGHTS' ``viblin``, and the DEM's walls where LIGGGHTS puts its mesh): after step n they stand
+at dt sum_{k <= n} v_w(t_k) = z_w(t_n + dt / 2) - z_w(dt / 2), so theta_n is the wall's phase
+when F_n is evaluated. Over a whole cycle the discrete sums of cos(theta_n), sin(theta_n) and
+their cross product vanish and those of cos^2 and sin^2 are N / 2, exactly: a force
+A cos(theta_n) + B sin(theta_n) + F_0 returns S_c = A T / 2 and S_s = B T / 2, and the weight
+(the constant F_0) has no first harmonic.
+
+With a_w = -W omega^2 cos(theta) and v_w = -W omega sin(theta),
+
+- the effective mass m_eff = S_c / (pi W omega), kg: the force in phase with minus the wall's
+  acceleration. A rigid mass m riding the wall pushes on it with F = -m a_w - m g, so
+  m_eff = m (times sin(omega dt / 2) / (omega dt / 2), the discrete wall's acceleration; 1 - 4e-7 at
+  1000 steps a cycle); a bed in free flight, 0.
+- the force-based C_eq = S_s / (pi W), N.s/m: the force in phase with the wall's velocity. A
+  dashpot c on the wall pushes on it with F = -c v_w, so C_eq = c.
+
+The walls' work on the spheres over the cycle is W omega S_s (the decks' and the kernel's wall
+work, to a factor cos(omega dt / 2) and terms at the cycle's two ends), so the force-based C_eq
+equals the energy-based one, E_d / (pi omega W^2), wherever the spheres' energy returns to itself
+over the measured cycles: the ledger check (:func:`ledger_check`) compares the two estimates,
+one from the force and one from the energy balance (LIGGGHTS) or the contacts' own dissipation
+(DEM); a difference is a drift of the bed's energy over the window or a broken ledger.
+
+Standard errors are the ones C_eq carries: each cell's series through
+:func:`pidpipe.measurement.statistics.standard_error` (blocks of cycles, AR(1)), the cells
+through :func:`pidpipe.measurement.cells.mean_of_cells` (packing spread and cycle noise).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pidpipe.measurement.cells import MeanOfCells, mean_of_cells
+from pidpipe.measurement.statistics import standard_error
+from pidpipe.physics.equivalent_damping import displacement_amplitude_m
+
+LEDGER_LIMIT_SEM = 3.0
+"""Largest |force-based - energy-based C_eq| in units of their combined standard error before
+the case is flagged ``ledger_force_energy``."""
+LEDGER_FLAG = "ledger_force_energy"
+
+
+def step_phases(first_step: int, n_steps: int, timestep_s: float,
+                omega_rad_s: float) -> np.ndarray:
+    """The wall's phase theta_n = omega (n + 1/2) dt at steps first_step + 1 .. first_step + n_steps.
+
+    Returns
+    -------
+    ndarray, shape (n_steps,)
+        rad.
+    """
+    steps = np.arange(first_step + 1, first_step + n_steps + 1, dtype=float)
+    return omega_rad_s * ((steps + 0.5) * timestep_s)
+
+
+def harmonic_sums(force_n: np.ndarray, steps_per_cycle: int, timestep_s: float,
+                  omega_rad_s: float, first_step: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """S_c and S_s of every whole cycle of a per-step force (the engines' sums, from a series).
+
+    Parameters
+    ----------
+    force_n : ndarray, shape (..., n_steps)
+        The spheres' z force on the walls at steps first_step + 1 .. first_step + n_steps, N.
+    steps_per_cycle : int
+        Steps per cycle of the base motion.
+    timestep_s, omega_rad_s : float
+        Timestep (s) and angular frequency of the base motion (rad/s).
+    first_step : int
+        The step before the first force; a cycle ends at every multiple of steps_per_cycle after it.
+
+    Returns
+    -------
+    cos_sums, sin_sums : ndarray, shape (..., n_steps // steps_per_cycle)
+        dt sum F_n cos(theta_n) and dt sum F_n sin(theta_n) over each cycle, N.s (a trailing
+        partial cycle is left out).
+    """
+    force = np.asarray(force_n, dtype=float)
+    n_cycles = force.shape[-1] // steps_per_cycle
+    force = force[..., :n_cycles * steps_per_cycle]
+    theta = step_phases(first_step, force.shape[-1], timestep_s, omega_rad_s)
+    shape = force.shape[:-1] + (n_cycles, steps_per_cycle)
+    cos_sums = (force * np.cos(theta)).reshape(shape).sum(axis=-1) * timestep_s
+    sin_sums = (force * np.sin(theta)).reshape(shape).sum(axis=-1) * timestep_s
+    return cos_sums, sin_sums
+
+
+def effective_mass_kg(cos_sums_n_s: np.ndarray, amplitude_m: float,
+                      omega_rad_s: float) -> np.ndarray:
+    """m_eff = S_c / (pi W omega), kg, cycle by cycle (same shape as ``cos_sums_n_s``).
+
+    Parameters
+    ----------
+    cos_sums_n_s : ndarray
+        S_c of each cycle, N.s.
+    amplitude_m, omega_rad_s : float
+        The wall's displacement amplitude W (m, > 0) and angular frequency (rad/s).
+    """
+    _check_motion(amplitude_m, omega_rad_s)
+    return np.asarray(cos_sums_n_s, dtype=float) / (math.pi * amplitude_m * omega_rad_s)
+
+
+def force_ceq_ns_m(sin_sums_n_s: np.ndarray, amplitude_m: float) -> np.ndarray:
+    """The force-based C_eq = S_s / (pi W), N.s/m, cycle by cycle (same shape as ``sin_sums_n_s``).
+
+    Parameters
+    ----------
+    sin_sums_n_s : ndarray
+        S_s of each cycle, N.s.
+    amplitude_m : float
+        The wall's displacement amplitude W, m (> 0).
+    """
+    _check_motion(amplitude_m, 1.0)
+    return np.asarray(sin_sums_n_s, dtype=float) / (math.pi * amplitude_m)
+
+
+def mean_cell(per_cycle: np.ndarray, first_cycle: int, block_cycles: int) -> tuple[MeanOfCells, list]:
+    """The mean cell of a quantity measured cycle by cycle in k cells, with C_eq's standard error.
+
+    Parameters
+    ----------
+    per_cycle : ndarray, shape (k, n_cycles)
+        Each cell's value in every cycle, transient included.
+    first_cycle : int
+        The first measured cycle (the case's transient).
+    block_cycles : int
+        Cycles per block (:func:`pidpipe.measurement.statistics.standard_error`).
+
+    Returns
+    -------
+    MeanOfCells
+        The mean over cells and its two-level standard error
+        (:func:`pidpipe.measurement.cells.mean_of_cells`).
+    cells : list of (float, float)
+        Each cell's mean over its measured cycles and its standard error.
+    """
+    values = np.atleast_2d(np.asarray(per_cycle, dtype=float))
+    cells = [standard_error(series[first_cycle:], block_cycles) for series in values]
+    return mean_of_cells(np.array([c[0] for c in cells]), np.array([c[1] for c in cells])), cells
+
+
+def ledger_check(force_ns_m: float, force_sem_ns_m: float, energy_ns_m: float,
+                 energy_sem_ns_m: float, limit_sem: float = LEDGER_LIMIT_SEM) -> tuple[float, bool]:
+    """Whether the force-based and the energy-based C_eq agree within ``limit_sem`` combined SEMs.
+
+    Returns
+    -------
+    z : float
+        (force - energy) / sqrt(sem_force^2 + sem_energy^2); NaN if that is not finite and
+        positive (one cycle, or two exactly equal estimates: then 0).
+    agree : bool
+        |z| <= limit_sem, or the two are equal; True when z cannot be computed.
+    """
+    difference = force_ns_m - energy_ns_m
+    combined = math.hypot(force_sem_ns_m, energy_sem_ns_m)
+    if difference == 0.0:
+        return 0.0, True
+    if not (math.isfinite(combined) and combined > 0.0):
+        return float("nan"), True
+    z = difference / combined
+    return z, abs(z) <= limit_sem
+
+
+def harmonics_record(cos_sums_n_s: np.ndarray, sin_sums_n_s: np.ndarray, first_cycle: int,
+                     freq_hz: float, accel_g: float, bed_mass_kg: float, block_cycles: int,
+                     ceq_energy_ns_m: float, ceq_energy_sem_ns_m: float,
+                     energy_j: np.ndarray | None = None,
+                     cells_mesh_mismatch: float | None = None) -> dict:
+    """The ``harmonics`` block of a case record, from the engines' per-cycle sums.
+
+    Parameters
+    ----------
+    cos_sums_n_s, sin_sums_n_s : ndarray, shape (k, n_cycles)
+        Each cell's S_c and S_s in every cycle of the run, transient included, N.s.
+    first_cycle : int
+        The first measured cycle (the case's transient).
+    freq_hz, accel_g : float
+        The base motion (W = G g / omega^2).
+    bed_mass_kg : float
+        The spheres' mass of the mean cell, kg.
+    block_cycles : int
+        Cycles per block of the standard errors.
+    ceq_energy_ns_m, ceq_energy_sem_ns_m : float
+        The case's energy-based C_eq of the mean cell and its standard error (``ceq_cell_ns_m``,
+        ``ceq_cell_sem_ns_m``), N.s/m.
+    energy_j : ndarray, shape (n_cycles + 1,), optional
+        The k cells' energy at the cycle boundaries (J), for the reason of a ledger flag: the
+        change of the bed's energy over the measured cycles, as a fraction of the energy
+        dissipated in them.
+    cells_mesh_mismatch : float, optional
+        How far the cells' sums miss the whole mesh's (LIGGGHTS with several cells,
+        :func:`pidpipe.liggghts.parsing.read_harmonic_sums`); recorded as given.
+
+    Returns
+    -------
+    dict
+        ``m_eff_cell_kg``, ``m_eff_cell_sem_kg``, ``m_eff_ratio`` (over ``bed_mass_kg``),
+        ``m_eff_ratio_sem``, ``bed_mass_kg``, ``ceq_force_cell_ns_m``,
+        ``ceq_force_cell_sem_ns_m``, ``ceq_energy_cell_ns_m`` and its SEM (as given),
+        ``ledger_z`` (force minus energy over their combined SEM), ``ledger_relative_difference``
+        (over the energy-based C_eq), ``flags`` ([``ledger_force_energy``] beyond
+        :data:`LEDGER_LIMIT_SEM`, else []), ``ledger_reason`` (None when they agree),
+        ``cells`` (each cell's m_eff and force-based C_eq with SEMs; empty for one cell),
+        ``cells_mesh_mismatch`` and the per-cycle sums ``cos_sums_n_s``, ``sin_sums_n_s``
+        (k lists of n_cycles).
+    """
+    cos_sums = np.atleast_2d(np.asarray(cos_sums_n_s, dtype=float))
+    sin_sums = np.atleast_2d(np.asarray(sin_sums_n_s, dtype=float))
+    if cos_sums.shape != sin_sums.shape:
+        raise ValueError(f"S_c {cos_sums.shape} and S_s {sin_sums.shape} differ in shape")
+    omega = 2.0 * math.pi * freq_hz
+    amplitude = displacement_amplitude_m(freq_hz, accel_g)
+    mass, mass_cells = mean_cell(effective_mass_kg(cos_sums, amplitude, omega), first_cycle,
+                                 block_cycles)
+    ceq, ceq_cells = mean_cell(force_ceq_ns_m(sin_sums, amplitude), first_cycle, block_cycles)
+    z, agree = ledger_check(ceq.mean, ceq.sem, ceq_energy_ns_m, ceq_energy_sem_ns_m)
+    reason = None
+    if not agree:
+        reason = (f"force-based C_eq {ceq.mean:.5g} +- {ceq.sem:.2g} N.s/m against the "
+                  f"energy-based {ceq_energy_ns_m:.5g} +- {ceq_energy_sem_ns_m:.2g}: {z:+.1f} "
+                  "combined SEM")
+        drift = energy_drift_of_dissipation(energy_j, first_cycle, ceq_energy_ns_m, freq_hz,
+                                            accel_g, cos_sums.shape[0])
+        if drift is not None:
+            reason += (f"; the bed's energy changed by {drift:+.3g} of the energy dissipated "
+                       "over the measured cycles")
+    return {
+        "m_eff_cell_kg": mass.mean,
+        "m_eff_cell_sem_kg": mass.sem,
+        "m_eff_ratio": mass.mean / bed_mass_kg,
+        "m_eff_ratio_sem": mass.sem / bed_mass_kg,
+        "bed_mass_kg": float(bed_mass_kg),
+        "ceq_force_cell_ns_m": ceq.mean,
+        "ceq_force_cell_sem_ns_m": ceq.sem,
+        "ceq_energy_cell_ns_m": float(ceq_energy_ns_m),
+        "ceq_energy_cell_sem_ns_m": float(ceq_energy_sem_ns_m),
+        "ledger_z": z,
+        "ledger_relative_difference": ((ceq.mean - ceq_energy_ns_m) / ceq_energy_ns_m
+                                       if ceq_energy_ns_m else float("nan")),
+        "flags": [] if agree else [LEDGER_FLAG],
+        "ledger_reason": reason,
+        "cells": [] if cos_sums.shape[0] == 1 else [
+            {"m_eff_cell_kg": m[0], "m_eff_cell_sem_kg": m[1],
+             "ceq_force_cell_ns_m": c[0], "ceq_force_cell_sem_ns_m": c[1]}
+            for m, c in zip(mass_cells, ceq_cells)],
+        "cells_mesh_mismatch": cells_mesh_mismatch,
+        "cos_sums_n_s": cos_sums.tolist(),
+        "sin_sums_n_s": sin_sums.tolist(),
+    }
+
+
+def energy_drift_of_dissipation(energy_j: np.ndarray | None, first_cycle: int,
+                                ceq_energy_ns_m: float, freq_hz: float, accel_g: float,
+                                n_cells: int) -> float | None:
+    """The k cells' energy change over the measured cycles over the energy they dissipated in
+    them (None without ``energy_j`` or dissipation)."""
+    if energy_j is None:
+        return None
+    energy = np.asarray(energy_j, dtype=float)
+    n_measured = energy.size - 1 - first_cycle
+    omega = 2.0 * math.pi * freq_hz
+    amplitude = displacement_amplitude_m(freq_hz, accel_g)
+    dissipated = ceq_energy_ns_m * math.pi * omega * amplitude**2 * n_measured * n_cells
+    if n_measured < 1 or not dissipated:
+        return None
+    return float((energy[-1] - energy[first_cycle]) / dissipated)
+
+
+def _check_motion(amplitude_m: float, omega_rad_s: float) -> None:
+    if not (amplitude_m > 0.0 and omega_rad_s > 0.0):
+        raise ValueError(f"the first harmonic needs a moving wall: W = {amplitude_m} m, "
+                         f"omega = {omega_rad_s} rad/s")
