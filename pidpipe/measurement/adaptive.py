@@ -42,6 +42,7 @@ import numpy as np
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.measurement.allocation import Components, Limits, Step, plan_next_step
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.harmonics import LEDGER_FLAG, combine_harmonics
 from pidpipe.measurement.steady_state import NOT_RESOLVED_SEMS, SIGN_FLAGS, sign_flags
 
 MAX_STEPS = 4
@@ -353,7 +354,9 @@ def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_co
         :func:`pidpipe.measurement.cells.summarise_cells` over every run's cells (each cell
         also names its ``run``); ``flags`` the union of the runs' own, with the sign flags
         (:func:`pidpipe.measurement.steady_state.sign_flags`) decided on the combined C_eq and
-        SEM; ``status`` from them; ``fidelity.seeds`` every cell's seed and ``fidelity.cells``
+        SEM, and the force-energy ledger flag on the combined ``harmonics``
+        (:func:`pidpipe.measurement.harmonics.combine_harmonics`, when every run has them);
+        ``status`` from them; ``fidelity.seeds`` every cell's seed and ``fidelity.cells``
         their number. ``cycles`` and the steady-state fields stay the last run's.
     """
     case = copy.deepcopy(records[-1])
@@ -369,8 +372,13 @@ def combine_runs(records: list[dict], freq_hz: float, accel_g: float, n_cells_co
                          pile_height_m=cell["pile_height_m"], dissipated_j=cell["dissipated_all_j"])
         summary["cells"] = own
     case.update(summary)
-    flags = [flag for record in records for flag in record["flags"] if flag not in SIGN_FLAGS]
-    flags = list(dict.fromkeys(flags + sign_flags(summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])))
+    if all("harmonics" in record for record in records):
+        case["harmonics"] = combine_harmonics(records, summary["ceq_cell_ns_m"],
+                                              summary["ceq_cell_sem_ns_m"])
+    flags = [flag for record in records for flag in record["flags"]
+             if flag not in SIGN_FLAGS and flag != LEDGER_FLAG]
+    flags = list(dict.fromkeys(flags + sign_flags(summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])
+                               + case.get("harmonics", {}).get("flags", [])))
     case["flags"] = flags
     case["status"] = "flagged" if flags else "ok"
     case["fidelity"]["seeds"] = [int(cell["seed"]) for _, cell in cells]

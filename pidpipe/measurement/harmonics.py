@@ -41,6 +41,7 @@ through :func:`pidpipe.measurement.cells.mean_of_cells` (packing spread and cycl
 from __future__ import annotations
 
 import math
+from typing import Sequence
 
 import numpy as np
 
@@ -127,15 +128,17 @@ def force_ceq_ns_m(sin_sums_n_s: np.ndarray, amplitude_m: float) -> np.ndarray:
     return np.asarray(sin_sums_n_s, dtype=float) / (math.pi * amplitude_m)
 
 
-def mean_cell(per_cycle: np.ndarray, first_cycle: int, block_cycles: int) -> tuple[MeanOfCells, list]:
+def mean_cell(per_cycle, first_cycle: int | Sequence[int],
+              block_cycles: int) -> tuple[MeanOfCells, list]:
     """The mean cell of a quantity measured cycle by cycle in k cells, with C_eq's standard error.
 
     Parameters
     ----------
-    per_cycle : ndarray, shape (k, n_cycles)
-        Each cell's value in every cycle, transient included.
-    first_cycle : int
-        The first measured cycle (the case's transient).
+    per_cycle : ndarray, shape (k, n_cycles) or (n_cycles,); or k sequences
+        Each cell's value in every cycle, transient included (cells of several runs may have
+        series of different lengths).
+    first_cycle : int, or sequence of k int
+        The first measured cycle (the case's transient), or each cell's.
     block_cycles : int
         Cycles per block (:func:`pidpipe.measurement.statistics.standard_error`).
 
@@ -147,8 +150,9 @@ def mean_cell(per_cycle: np.ndarray, first_cycle: int, block_cycles: int) -> tup
     cells : list of (float, float)
         Each cell's mean over its measured cycles and its standard error.
     """
-    values = np.atleast_2d(np.asarray(per_cycle, dtype=float))
-    cells = [standard_error(series[first_cycle:], block_cycles) for series in values]
+    values = cell_series(per_cycle)
+    firsts = _first_cycles(first_cycle, len(values))
+    cells = [standard_error(series[first:], block_cycles) for series, first in zip(values, firsts)]
     return mean_of_cells(np.array([c[0] for c in cells]), np.array([c[1] for c in cells])), cells
 
 
@@ -174,7 +178,21 @@ def ledger_check(force_ns_m: float, force_sem_ns_m: float, energy_ns_m: float,
     return z, abs(z) <= limit_sem
 
 
-def harmonics_record(cos_sums_n_s: np.ndarray, sin_sums_n_s: np.ndarray, first_cycle: int,
+def cell_series(per_cycle) -> list[np.ndarray]:
+    """Each cell's series: the rows of a (k, n) array, a (n,) array as one cell, or k sequences."""
+    if isinstance(per_cycle, np.ndarray) or not len(per_cycle) or np.ndim(per_cycle[0]) == 0:
+        return list(np.atleast_2d(np.asarray(per_cycle, dtype=float)))
+    return [np.asarray(series, dtype=float).reshape(-1) for series in per_cycle]
+
+
+def _first_cycles(first_cycle: int | Sequence[int], n_cells: int) -> list[int]:
+    firsts = [int(first_cycle)] * n_cells if np.ndim(first_cycle) == 0 else [int(f) for f in first_cycle]
+    if len(firsts) != n_cells:
+        raise ValueError(f"{len(firsts)} first cycles for {n_cells} cells")
+    return firsts
+
+
+def harmonics_record(cos_sums_n_s, sin_sums_n_s, first_cycle: int | Sequence[int],
                      freq_hz: float, accel_g: float, bed_mass_kg: float, block_cycles: int,
                      ceq_energy_ns_m: float, ceq_energy_sem_ns_m: float,
                      energy_j: np.ndarray | None = None,
@@ -183,10 +201,10 @@ def harmonics_record(cos_sums_n_s: np.ndarray, sin_sums_n_s: np.ndarray, first_c
 
     Parameters
     ----------
-    cos_sums_n_s, sin_sums_n_s : ndarray, shape (k, n_cycles)
-        Each cell's S_c and S_s in every cycle of the run, transient included, N.s.
-    first_cycle : int
-        The first measured cycle (the case's transient).
+    cos_sums_n_s, sin_sums_n_s : ndarray, shape (k, n_cycles), or k sequences
+        Each cell's S_c and S_s in every cycle of its run, transient included, N.s.
+    first_cycle : int, or sequence of k int
+        The first measured cycle (the case's transient), or each cell's (cells of several runs).
     freq_hz, accel_g : float
         The base motion (W = G g / omega^2).
     bed_mass_kg : float
@@ -217,23 +235,24 @@ def harmonics_record(cos_sums_n_s: np.ndarray, sin_sums_n_s: np.ndarray, first_c
         ``cells_mesh_mismatch`` and the per-cycle sums ``cos_sums_n_s``, ``sin_sums_n_s``
         (k lists of n_cycles).
     """
-    cos_sums = np.atleast_2d(np.asarray(cos_sums_n_s, dtype=float))
-    sin_sums = np.atleast_2d(np.asarray(sin_sums_n_s, dtype=float))
-    if cos_sums.shape != sin_sums.shape:
-        raise ValueError(f"S_c {cos_sums.shape} and S_s {sin_sums.shape} differ in shape")
+    cos_sums, sin_sums = cell_series(cos_sums_n_s), cell_series(sin_sums_n_s)
+    if [c.shape for c in cos_sums] != [s.shape for s in sin_sums]:
+        raise ValueError("S_c and S_s differ in shape")
+    n_cells = len(cos_sums)
     omega = 2.0 * math.pi * freq_hz
     amplitude = displacement_amplitude_m(freq_hz, accel_g)
-    mass, mass_cells = mean_cell(effective_mass_kg(cos_sums, amplitude, omega), first_cycle,
-                                 block_cycles)
-    ceq, ceq_cells = mean_cell(force_ceq_ns_m(sin_sums, amplitude), first_cycle, block_cycles)
+    mass, mass_cells = mean_cell([effective_mass_kg(c, amplitude, omega) for c in cos_sums],
+                                 first_cycle, block_cycles)
+    ceq, ceq_cells = mean_cell([force_ceq_ns_m(c, amplitude) for c in sin_sums], first_cycle,
+                               block_cycles)
     z, agree = ledger_check(ceq.mean, ceq.sem, ceq_energy_ns_m, ceq_energy_sem_ns_m)
     reason = None
     if not agree:
         reason = (f"force-based C_eq {ceq.mean:.5g} +- {ceq.sem:.2g} N.s/m against the "
                   f"energy-based {ceq_energy_ns_m:.5g} +- {ceq_energy_sem_ns_m:.2g}: {z:+.1f} "
                   "combined SEM")
-        drift = energy_drift_of_dissipation(energy_j, first_cycle, ceq_energy_ns_m, freq_hz,
-                                            accel_g, cos_sums.shape[0])
+        drift = (None if np.ndim(first_cycle) else energy_drift_of_dissipation(
+            energy_j, int(first_cycle), ceq_energy_ns_m, freq_hz, accel_g, n_cells))
         if drift is not None:
             reason += (f"; the bed's energy changed by {drift:+.3g} of the energy dissipated "
                        "over the measured cycles")
@@ -252,14 +271,50 @@ def harmonics_record(cos_sums_n_s: np.ndarray, sin_sums_n_s: np.ndarray, first_c
                                        if ceq_energy_ns_m else float("nan")),
         "flags": [] if agree else [LEDGER_FLAG],
         "ledger_reason": reason,
-        "cells": [] if cos_sums.shape[0] == 1 else [
+        "cells": [] if n_cells == 1 else [
             {"m_eff_cell_kg": m[0], "m_eff_cell_sem_kg": m[1],
              "ceq_force_cell_ns_m": c[0], "ceq_force_cell_sem_ns_m": c[1]}
             for m, c in zip(mass_cells, ceq_cells)],
         "cells_mesh_mismatch": cells_mesh_mismatch,
-        "cos_sums_n_s": cos_sums.tolist(),
-        "sin_sums_n_s": sin_sums.tolist(),
+        "cos_sums_n_s": [c.tolist() for c in cos_sums],
+        "sin_sums_n_s": [c.tolist() for c in sin_sums],
     }
+
+
+def combine_harmonics(records: Sequence[dict], ceq_energy_ns_m: float,
+                      ceq_energy_sem_ns_m: float) -> dict:
+    """The ``harmonics`` of a case measured in several runs, over all their cells.
+
+    Parameters
+    ----------
+    records : sequence of dict
+        Run records of one case (each with ``harmonics``, ``freq_hz``, ``accel_g`` and
+        ``fidelity``: its transient and block cycles), their cells distinct packings.
+    ceq_energy_ns_m, ceq_energy_sem_ns_m : float
+        The combined energy-based C_eq of the mean cell and its SEM, N.s/m
+        (:func:`pidpipe.measurement.adaptive.combine_runs`).
+
+    Returns
+    -------
+    dict
+        :func:`harmonics_record` of every run's cells, each cell measured after its own run's
+        transient (no energy drift in a ledger flag's reason: the runs' energies are apart);
+        ``cells_mesh_mismatch`` the largest of the runs' (None if none has one).
+    """
+    cos_sums, sin_sums, firsts = [], [], []
+    for record in records:
+        harmonics = record["harmonics"]
+        cos_sums += harmonics["cos_sums_n_s"]
+        sin_sums += harmonics["sin_sums_n_s"]
+        firsts += [int(record["fidelity"]["transient_cycles"])] * len(harmonics["cos_sums_n_s"])
+    mismatches = [r["harmonics"]["cells_mesh_mismatch"] for r in records
+                  if r["harmonics"].get("cells_mesh_mismatch") is not None]
+    last = records[-1]
+    return harmonics_record(cos_sums, sin_sums, firsts, last["freq_hz"], last["accel_g"],
+                            float(np.mean([r["harmonics"]["bed_mass_kg"] for r in records])),
+                            int(last["fidelity"]["sem_block_cycles"]), ceq_energy_ns_m,
+                            ceq_energy_sem_ns_m,
+                            cells_mesh_mismatch=max(mismatches) if mismatches else None)
 
 
 def energy_drift_of_dissipation(energy_j: np.ndarray | None, first_cycle: int,

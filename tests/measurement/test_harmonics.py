@@ -11,6 +11,7 @@ import pytest
 from pidpipe.measurement.cells import mean_of_cells
 from pidpipe.measurement.harmonics import (
     LEDGER_FLAG,
+    combine_harmonics,
     effective_mass_kg,
     force_ceq_ns_m,
     harmonic_sums,
@@ -135,3 +136,26 @@ def test_record_flags_a_force_energy_disagreement_with_its_reason():
     assert record["flags"] == [LEDGER_FLAG]
     assert record["ledger_z"] < -3
     assert "combined SEM" in record["ledger_reason"] and "energy changed by" in record["ledger_reason"]
+
+
+def test_runs_combine_over_all_their_cells_each_after_its_own_transient():
+    """Cells of two runs (the allocation's more cells): one estimate over the three cells, each
+    measured after its own run's transient; the same as the cells given together."""
+    rng = np.random.default_rng(11)
+    amplitude = displacement_amplitude_m(FREQ_HZ, 5.0)
+    first = (rng.normal(1e-9, 1e-10, size=(2, 30)), rng.normal(1e-8, 1e-9, size=(2, 30)))
+    second = (rng.normal(1e-9, 1e-10, size=(1, 50)), rng.normal(1e-8, 1e-9, size=(1, 50)))
+    records = []
+    for (cos_sums, sin_sums), transient in ((first, 4), (second, 9)):
+        harmonics = harmonics_record(cos_sums, sin_sums, transient, FREQ_HZ, 5.0, 2e-4, 2, 1.0, 0.1)
+        records.append({"harmonics": harmonics, "freq_hz": FREQ_HZ, "accel_g": 5.0,
+                        "fidelity": {"transient_cycles": transient, "sem_block_cycles": 2}})
+    combined = combine_harmonics(records, 2e-3, 1e-4)
+    assert len(combined["cells"]) == 3 and len(combined["cos_sums_n_s"][2]) == 50
+    together = harmonics_record([*first[0], *second[0]], [*first[1], *second[1]], [4, 4, 9],
+                                FREQ_HZ, 5.0, 2e-4, 2, 2e-3, 1e-4)
+    assert combined == together
+    # each cell's mean over its whole blocks of 2 measured cycles (26, 26 and 40 of 41)
+    masses = [effective_mass_kg(c[t:t + 2 * ((c.size - t) // 2)], amplitude, OMEGA).mean()
+              for c, t in ((first[0][0], 4), (first[0][1], 4), (second[0][0], 9))]
+    assert combined["m_eff_cell_kg"] == pytest.approx(np.mean(masses), rel=1e-12)
