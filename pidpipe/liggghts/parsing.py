@@ -14,8 +14,8 @@ columns for each cell in turn, and a third file, the cell power file, has each c
 power over each cycle (:func:`read_shake_cycles`).
 
 The harmonics file holds the cycle means of the spheres' z force on the mesh times the cosine
-and the sine of the walls' phase; with several cells, the cell harmonics file has the same two
-columns for each cell (:func:`read_harmonic_sums`, :mod:`pidpipe.measurement.harmonics`).
+of the walls' phase; with several cells, the cell harmonics file has that of each cell
+(:func:`read_cos_sums`, :mod:`pidpipe.measurement.harmonics`).
 
 The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
 boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
@@ -202,68 +202,39 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
     return cells, mesh
 
 
-HARMONICS_TOLERANCE = 1e-4
-"""Largest mismatch, in any cycle, between the mesh's first-harmonic sums and the sum of the
-cells', as a fraction of the mesh's mean amplitude sqrt(S_c^2 + S_s^2) (6 digits each)."""
-
-
-@dataclass(frozen=True)
-class HarmonicSums:
-    """Each cell's first-harmonic sums of its spheres' z force on the walls, cycle by cycle.
-
-    Attributes
-    ----------
-    cos_n_s, sin_n_s : ndarray, shape (n_cells, n_cycles)
-        S_c and S_s (:mod:`pidpipe.measurement.harmonics`), N s.
-    mesh_mismatch : float
-        With several cells, the largest difference over the cycles between the mesh's sums and
-        the cells' total, as a fraction of the mesh's mean amplitude; 0 for one cell (the cell
-        is the mesh).
-    """
-
-    cos_n_s: np.ndarray
-    sin_n_s: np.ndarray
-    mesh_mismatch: float
-
-
-def read_harmonic_sums(harmonics_path: str | Path, period_s: float, expected_cycles: int,
-                       n_cells: int, cell_harmonics_path: str | Path | None = None) -> HarmonicSums:
-    """The first-harmonic sums of a shake run: each cycle's mean of F cos and F sin times the period.
+def read_cos_sums(harmonics_path: str | Path, cell_harmonics_path: str | Path, period_s: float,
+                  expected_cycles: int, n_cells: int) -> np.ndarray:
+    """Each cell's S_c, the sum over each cycle of its spheres' z force on the walls times the
+    cosine of the walls' phase (:mod:`pidpipe.measurement.harmonics`): the cycle mean the deck
+    wrote times the period.
 
     Parameters
     ----------
     harmonics_path : path
-        The harmonics file: step, the cycle means of the mesh's force (spheres on mesh, z, N)
-        times cos(theta) and times sin(theta).
+        One cell: the harmonics file (step, the mesh's mean of F cos).
+    cell_harmonics_path : path
+        Several cells: the cell harmonics file (step, each cell's mean of F cos; a row at
+        step 0 is dropped).
     period_s : float
         Period of the base motion, s.
-    expected_cycles : int
-    n_cells : int
-    cell_harmonics_path : path, optional
-        With several cells (then required): step, then the two means of each cell.
+    expected_cycles, n_cells : int
+
+    Returns
+    -------
+    ndarray, shape (n_cells, expected_cycles)
+        N s.
 
     Raises
     ------
     ParseError
-        Missing, truncated or inconsistent output.
+        Missing or truncated output.
     """
-    mesh = read_ave_time(harmonics_path, 3)
-    if len(mesh) != expected_cycles:
-        raise ParseError(f"{harmonics_path} has {len(mesh)} rows, expected {expected_cycles} "
+    path = harmonics_path if n_cells == 1 else cell_harmonics_path
+    table = without_step_zero(read_ave_time(path, 1 + n_cells))
+    if len(table) != expected_cycles:
+        raise ParseError(f"{path} has {len(table)} rows, expected {expected_cycles} "
                          "(truncated run?)")
-    mesh_sums = mesh[:, 1:3].T * period_s
-    if n_cells == 1:
-        return HarmonicSums(mesh_sums[:1], mesh_sums[1:], 0.0)
-    if cell_harmonics_path is None:
-        raise ValueError("several cells need their cell harmonics file")
-    cells = without_step_zero(read_ave_time(cell_harmonics_path, 1 + 2 * n_cells))
-    if not np.array_equal(cells[:, 0], mesh[:, 0]):
-        raise ParseError(f"the cycle ends of {cell_harmonics_path} and {harmonics_path} differ "
-                         f"({len(cells)} and {len(mesh)} rows; truncated run?)")
-    sums = cells[:, 1:].reshape(len(cells), n_cells, 2).transpose(2, 1, 0) * period_s
-    scale = float(np.mean(np.hypot(*mesh_sums)))
-    miss = float(np.max(np.abs(sums.sum(axis=1) - mesh_sums))) / scale if scale > 0 else 0.0
-    return HarmonicSums(sums[0], sums[1], miss)
+    return table[:, 1:].T * period_s
 
 
 def _read_cycle_tables(power_path: str | Path, energy_path: str | Path, expected_cycles: int,

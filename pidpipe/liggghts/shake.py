@@ -31,11 +31,10 @@ from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
 from pidpipe.liggghts.motion import motion_deck_values
 from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
 from pidpipe.liggghts.movie import movie_deck_values
-from pidpipe.liggghts.parsing import (HARMONICS_TOLERANCE, CycleSeries, read_harmonic_sums,
-                                      read_shake_cycles)
+from pidpipe.liggghts.parsing import CycleSeries, read_cos_sums, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.cells import summarise_cells
-from pidpipe.measurement.harmonics import harmonics_record
+from pidpipe.measurement.harmonics import harmonics_record, sine_sums_from_wall_work
 from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2, sphere_mass
@@ -124,6 +123,7 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
                   steps_per_cycle=plan.steps_per_cycle, total_steps=plan.steps_per_cycle * cycles,
                   power_file=POWER_FILE, energy_file=ENERGY_FILE,
                   harmonics_file=HARMONICS_FILE, cell_harmonics_file=CELL_HARMONICS_FILE,
+                  mesh_harmonics=len(cells) == 1,
                   pair_contact_file=PAIR_CONTACT_FILE, wall_contact_file=WALL_CONTACT_FILE,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=settings.fidelity.timestep_rayleigh_fraction * (1.0 + 1e-6),
@@ -229,7 +229,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     inspection = inspection_record(plan, workdir, case.accel_g, packings, transient,
                                    plan["scene"].cell, settings.motion, movie, movie_dir)
     harmonics = run_harmonics(plan, workdir, case, transient, sampling.sem_block_cycles, summary,
-                              series)
+                              cells, series)
     flags = (containment_flags(plan["scene"], series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else [])
@@ -301,26 +301,21 @@ def read_cell_series(scene: CellScene, plan: dict,
     return cells, mesh, float(np.max(np.abs(cells_work - mesh.wall_work_j)) / gross) if gross > 0 else 0.0
 
 
-HARMONICS_MISMATCH_FLAG = "harmonics_mesh_mismatch"
-
-
 def run_harmonics(plan: dict, workdir: Path, case: CaseSpec, transient: int, block_cycles: int,
-                  summary: dict, series: CycleSeries) -> dict:
-    """The record's ``harmonics`` (:func:`pidpipe.measurement.harmonics.harmonics_record`) from a
-    shake run's harmonics files, its mean cell's energy-based C_eq (``summary``) and the cells'
-    energies (``series``); flagged ``harmonics_mesh_mismatch`` too when the cells' sums miss the
-    mesh's by more than :data:`pidpipe.liggghts.parsing.HARMONICS_TOLERANCE`."""
-    n_cells = plan["layout"].n_cells
-    sums = read_harmonic_sums(workdir / HARMONICS_FILE, plan["period_s"], plan["cycles"], n_cells,
-                              workdir / CELL_HARMONICS_FILE)
+                  summary: dict, cells: list[CycleSeries], series: CycleSeries) -> dict:
+    """The record's ``harmonics`` (:func:`pidpipe.measurement.harmonics.harmonics_record`): each
+    cell's S_c from the harmonics files, its S_s from its wall work
+    (:func:`pidpipe.measurement.harmonics.sine_sums_from_wall_work`), against the mean cell's
+    energy-based C_eq (``summary``); ``series``, all cells' energies, for a flag's reason."""
+    cos_sums = read_cos_sums(workdir / HARMONICS_FILE, workdir / CELL_HARMONICS_FILE,
+                             plan["period_s"], plan["cycles"], len(cells))
+    omega = 2.0 * math.pi * case.freq_hz
+    sin_sums = np.array([sine_sums_from_wall_work(cell.wall_work_j, plan["amplitude_m"], omega,
+                                                  plan["timestep"].timestep_s) for cell in cells])
     bed_mass = float(np.mean([cell["weight_n"] for cell in plan["cells"]])) / STANDARD_GRAVITY_M_S2
-    harmonics = harmonics_record(sums.cos_n_s, sums.sin_n_s, transient, case.freq_hz,
-                                 case.accel_g, bed_mass, block_cycles, summary["ceq_cell_ns_m"],
-                                 summary["ceq_cell_sem_ns_m"], series.energy_j,
-                                 sums.mesh_mismatch if n_cells > 1 else None)
-    if sums.mesh_mismatch > HARMONICS_TOLERANCE:
-        harmonics["flags"].append(HARMONICS_MISMATCH_FLAG)
-    return harmonics
+    return harmonics_record(cos_sums, sin_sums, transient, case.freq_hz, case.accel_g, bed_mass,
+                            block_cycles, summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"],
+                            series.energy_j)
 
 
 def write_record(record: dict, path: str | Path) -> Path:

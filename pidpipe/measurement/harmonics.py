@@ -9,7 +9,8 @@ positive; the negative of the walls' force on the spheres) against the wall's ph
     S_c = dt sum_n F_n cos(theta_n),    S_s = dt sum_n F_n sin(theta_n),
     theta_n = omega (t_n + dt / 2),  t_n = n dt,
 
-n over the N = T / dt steps of the cycle (N.s). The walls move as z_w = W (cos(omega t) - 1)
+n over the N = T / dt steps of the cycle (N.s; the compiled DEM sums both in its time loop, the
+LIGGGHTS deck sums S_c and has S_s in its wall power, :func:`sine_sums_from_wall_work`). The walls move as z_w = W (cos(omega t) - 1)
 (LIGGGHTS' ``viblin``, and the DEM's walls where LIGGGHTS puts its mesh): after step n they stand
 at dt sum_{k <= n} v_w(t_k) = z_w(t_n + dt / 2) - z_w(dt / 2), so theta_n is the wall's phase
 when F_n is evaluated. Over a whole cycle the discrete sums of cos(theta_n), sin(theta_n) and
@@ -97,6 +98,32 @@ def harmonic_sums(force_n: np.ndarray, steps_per_cycle: int, timestep_s: float,
     cos_sums = (force * np.cos(theta)).reshape(shape).sum(axis=-1) * timestep_s
     sin_sums = (force * np.sin(theta)).reshape(shape).sum(axis=-1) * timestep_s
     return cos_sums, sin_sums
+
+
+def sine_sums_from_wall_work(wall_work_j: np.ndarray, amplitude_m: float, omega_rad_s: float,
+                             timestep_s: float) -> np.ndarray:
+    """S_s from the wall work per cycle of the LIGGGHTS shake deck, which is the same step sum.
+
+    The deck's wall power at step n is F_n W omega (sin(omega t_n) + sin(omega t_n+1)) / 2
+    (:mod:`pidpipe.liggghts.parsing`), and (sin a + sin b) / 2 = cos((b - a) / 2) sin((a + b) / 2),
+    so its work over a cycle is W omega cos(omega dt / 2) S_s exactly: the deck sums the sine
+    once, as the wall power, and not again.
+
+    Parameters
+    ----------
+    wall_work_j : ndarray
+        The walls' work on a cell's spheres in each cycle, J.
+    amplitude_m, omega_rad_s, timestep_s : float
+        W (m), omega (rad/s) and dt (s) of the run.
+
+    Returns
+    -------
+    ndarray, same shape
+        N s.
+    """
+    _check_motion(amplitude_m, omega_rad_s)
+    factor = amplitude_m * omega_rad_s * math.cos(0.5 * omega_rad_s * timestep_s)
+    return np.asarray(wall_work_j, dtype=float) / factor
 
 
 def effective_mass_kg(cos_sums_n_s: np.ndarray, amplitude_m: float,
@@ -195,8 +222,7 @@ def _first_cycles(first_cycle: int | Sequence[int], n_cells: int) -> list[int]:
 def harmonics_record(cos_sums_n_s, sin_sums_n_s, first_cycle: int | Sequence[int],
                      freq_hz: float, accel_g: float, bed_mass_kg: float, block_cycles: int,
                      ceq_energy_ns_m: float, ceq_energy_sem_ns_m: float,
-                     energy_j: np.ndarray | None = None,
-                     cells_mesh_mismatch: float | None = None) -> dict:
+                     energy_j: np.ndarray | None = None) -> dict:
     """The ``harmonics`` block of a case record, from the engines' per-cycle sums.
 
     Parameters
@@ -218,9 +244,6 @@ def harmonics_record(cos_sums_n_s, sin_sums_n_s, first_cycle: int | Sequence[int
         The k cells' energy at the cycle boundaries (J), for the reason of a ledger flag: the
         change of the bed's energy over the measured cycles, as a fraction of the energy
         dissipated in them.
-    cells_mesh_mismatch : float, optional
-        How far the cells' sums miss the whole mesh's (LIGGGHTS with several cells,
-        :func:`pidpipe.liggghts.parsing.read_harmonic_sums`); recorded as given.
 
     Returns
     -------
@@ -231,9 +254,8 @@ def harmonics_record(cos_sums_n_s, sin_sums_n_s, first_cycle: int | Sequence[int
         ``ledger_z`` (force minus energy over their combined SEM), ``ledger_relative_difference``
         (over the energy-based C_eq), ``flags`` ([``ledger_force_energy``] beyond
         :data:`LEDGER_LIMIT_SEM`, else []), ``ledger_reason`` (None when they agree),
-        ``cells`` (each cell's m_eff and force-based C_eq with SEMs; empty for one cell),
-        ``cells_mesh_mismatch`` and the per-cycle sums ``cos_sums_n_s``, ``sin_sums_n_s``
-        (k lists of n_cycles).
+        ``cells`` (each cell's m_eff and force-based C_eq with SEMs; empty for one cell), and
+        the per-cycle sums ``cos_sums_n_s``, ``sin_sums_n_s`` (k lists of n_cycles).
     """
     cos_sums, sin_sums = cell_series(cos_sums_n_s), cell_series(sin_sums_n_s)
     if [c.shape for c in cos_sums] != [s.shape for s in sin_sums]:
@@ -275,7 +297,6 @@ def harmonics_record(cos_sums_n_s, sin_sums_n_s, first_cycle: int | Sequence[int
             {"m_eff_cell_kg": m[0], "m_eff_cell_sem_kg": m[1],
              "ceq_force_cell_ns_m": c[0], "ceq_force_cell_sem_ns_m": c[1]}
             for m, c in zip(mass_cells, ceq_cells)],
-        "cells_mesh_mismatch": cells_mesh_mismatch,
         "cos_sums_n_s": [c.tolist() for c in cos_sums],
         "sin_sums_n_s": [c.tolist() for c in sin_sums],
     }
@@ -298,8 +319,7 @@ def combine_harmonics(records: Sequence[dict], ceq_energy_ns_m: float,
     -------
     dict
         :func:`harmonics_record` of every run's cells, each cell measured after its own run's
-        transient (no energy drift in a ledger flag's reason: the runs' energies are apart);
-        ``cells_mesh_mismatch`` the largest of the runs' (None if none has one).
+        transient (no energy drift in a ledger flag's reason: the runs' energies are apart).
     """
     cos_sums, sin_sums, firsts = [], [], []
     for record in records:
@@ -307,14 +327,11 @@ def combine_harmonics(records: Sequence[dict], ceq_energy_ns_m: float,
         cos_sums += harmonics["cos_sums_n_s"]
         sin_sums += harmonics["sin_sums_n_s"]
         firsts += [int(record["fidelity"]["transient_cycles"])] * len(harmonics["cos_sums_n_s"])
-    mismatches = [r["harmonics"]["cells_mesh_mismatch"] for r in records
-                  if r["harmonics"].get("cells_mesh_mismatch") is not None]
     last = records[-1]
     return harmonics_record(cos_sums, sin_sums, firsts, last["freq_hz"], last["accel_g"],
                             float(np.mean([r["harmonics"]["bed_mass_kg"] for r in records])),
                             int(last["fidelity"]["sem_block_cycles"]), ceq_energy_ns_m,
-                            ceq_energy_sem_ns_m,
-                            cells_mesh_mismatch=max(mismatches) if mismatches else None)
+                            ceq_energy_sem_ns_m)
 
 
 def energy_drift_of_dissipation(energy_j: np.ndarray | None, first_cycle: int,

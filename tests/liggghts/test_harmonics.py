@@ -13,7 +13,7 @@ from pidpipe.cases import CaseSpec
 from pidpipe.config.settings import ShakeSettings
 from pidpipe.dem.case import run_dem_case
 from pidpipe.errors import ParseError
-from pidpipe.liggghts.parsing import read_harmonic_sums
+from pidpipe.liggghts.parsing import read_cos_sums
 from pidpipe.liggghts.shake import run_case
 from tests.conftest import short_config
 
@@ -48,29 +48,28 @@ def test_force_and_energy_c_eq_agree(tmp_path, half_fill_packing):
     assert abs(harmonics["ceq_force_cell_ns_m"] - record["ceq_cell_ns_m"]) < combined
     assert abs(harmonics["ledger_z"]) < 1 and "ledger_force_energy" not in record["flags"]
     assert abs(harmonics["m_eff_ratio"]) < 0.5              # airborne most of the cycle
-    # the sums are the cycle means the deck wrote, times the period
+    # S_c is the cycle mean the deck wrote times the period; S_s the wall work over W omega
+    # cos(omega dt / 2)
     written = np.loadtxt(tmp_path / "harmonics.txt", comments="#")
-    assert np.allclose(harmonics["sin_sums_n_s"][0], written[:, 2] / 500.0, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(harmonics["cos_sums_n_s"][0], written[:, 1] / 500.0, rtol=1e-15)
+    amplitude, omega = record["displacement_amplitude_m"], 2 * math.pi * 500.0
+    np.testing.assert_allclose(np.array(harmonics["sin_sums_n_s"][0]) * amplitude * omega,
+                               record["cycles"]["wall_work_j"], rtol=1e-5)
 
 
 def _write(path, rows):
-    path.write_text("# Time-averaged data\n# TimeStep v_a v_b\n"
+    path.write_text("# Time-averaged data\n# TimeStep v_a\n"
                     + "".join(" ".join(str(v) for v in row) + "\n" for row in rows))
 
 
-def test_harmonics_files_of_two_cells_are_read_and_checked(tmp_path):
-    _write(tmp_path / "h.txt", [[10, 1.0, 2.0], [20, 3.0, -4.0]])
-    _write(tmp_path / "c.txt", [[0, 0, 0, 0, 0], [10, 0.25, 0.5, 0.75, 1.5], [20, 1.0, -1.0, 2.0, -3.0]])
-    sums = read_harmonic_sums(tmp_path / "h.txt", 0.5, 2, 2, tmp_path / "c.txt")
-    np.testing.assert_array_equal(sums.cos_n_s, [[0.125, 0.5], [0.375, 1.0]])
-    np.testing.assert_array_equal(sums.sin_n_s, [[0.25, -0.5], [0.75, -1.5]])
-    assert sums.mesh_mismatch == 0.0
-    one = read_harmonic_sums(tmp_path / "h.txt", 0.5, 2, 1)
-    np.testing.assert_array_equal(one.cos_n_s, [[0.5, 1.5]])
-    _write(tmp_path / "c.txt", [[10, 0.25, 0.5, 0.75, 1.5], [20, 1.0, -1.0, 2.0, -2.0]])
-    assert read_harmonic_sums(tmp_path / "h.txt", 0.5, 2, 2, tmp_path / "c.txt").mesh_mismatch > 0.1
+def test_harmonics_files_are_read_for_one_cell_and_for_several(tmp_path):
+    _write(tmp_path / "h.txt", [[10, 1.0], [20, 3.0]])
+    _write(tmp_path / "c.txt", [[0, 0, 0], [10, 0.25, 0.75], [20, 1.0, 2.0]])
+    np.testing.assert_array_equal(read_cos_sums(tmp_path / "h.txt", tmp_path / "no.txt", 0.5, 2, 1),
+                                  [[0.5, 1.5]])
+    np.testing.assert_array_equal(read_cos_sums(tmp_path / "no.txt", tmp_path / "c.txt", 0.5, 2, 2),
+                                  [[0.125, 0.5], [0.375, 1.0]])
     with pytest.raises(ParseError, match="expected 3"):
-        read_harmonic_sums(tmp_path / "h.txt", 0.5, 3, 1)
-    _write(tmp_path / "c.txt", [[10, 0.25, 0.5, 0.75, 1.5]])
-    with pytest.raises(ParseError, match="differ"):
-        read_harmonic_sums(tmp_path / "h.txt", 0.5, 2, 2, tmp_path / "c.txt")
+        read_cos_sums(tmp_path / "h.txt", tmp_path / "no.txt", 0.5, 3, 1)
+    with pytest.raises(ParseError, match="missing"):
+        read_cos_sums(tmp_path / "h.txt", tmp_path / "no.txt", 0.5, 2, 2)

@@ -18,6 +18,7 @@ from pidpipe.measurement.harmonics import (
     harmonics_record,
     ledger_check,
     mean_cell,
+    sine_sums_from_wall_work,
     step_phases,
 )
 from pidpipe.measurement.statistics import standard_error
@@ -159,3 +160,16 @@ def test_runs_combine_over_all_their_cells_each_after_its_own_transient():
     masses = [effective_mass_kg(c[t:t + 2 * ((c.size - t) // 2)], amplitude, OMEGA).mean()
               for c, t in ((first[0][0], 4), (first[0][1], 4), (second[0][0], 9))]
     assert combined["m_eff_cell_kg"] == pytest.approx(np.mean(masses), rel=1e-12)
+
+
+def test_the_decks_wall_work_gives_the_sine_sums():
+    """LIGGGHTS' wall power uses (sin(omega t_n) + sin(omega t_n+1)) / 2: its work over a cycle
+    divided by W omega cos(omega dt / 2) is S_s, to rounding."""
+    amplitude = displacement_amplitude_m(FREQ_HZ, 5.0)
+    force = np.random.default_rng(5).normal(size=2 * STEPS)
+    steps = np.arange(1, 2 * STEPS + 1)
+    velocity = -amplitude * OMEGA * 0.5 * (np.sin(OMEGA * steps * DT) + np.sin(OMEGA * (steps + 1) * DT))
+    work = (-force * velocity * DT).reshape(2, STEPS).sum(axis=1)
+    _, sin_sums = harmonic_sums(force, STEPS, DT, OMEGA)
+    np.testing.assert_allclose(sine_sums_from_wall_work(work, amplitude, OMEGA, DT), sin_sums,
+                               rtol=1e-10)
