@@ -9,11 +9,11 @@ positive; the negative of the walls' force on the spheres) against the wall's ph
     S_c = dt sum_n F_n cos(theta_n),    S_s = dt sum_n F_n sin(theta_n),
     theta_n = omega (t_n + dt / 2),  t_n = n dt,
 
-n over the N = T / dt steps of the cycle (N.s; the compiled DEM sums both in its time loop, the
-LIGGGHTS deck sums S_c and has S_s in its wall power, :func:`sine_sums_from_wall_work`). The walls move as z_w = W (cos(omega t) - 1)
-(LIGGGHTS' ``viblin``, and the DEM's walls where LIGGGHTS puts its mesh): after step n they stand
-at dt sum_{k <= n} v_w(t_k) = z_w(t_n + dt / 2) - z_w(dt / 2), so theta_n is the wall's phase
-when F_n is evaluated. Over a whole cycle the discrete sums of cos(theta_n), sin(theta_n) and
+n over the N = T / dt steps of the cycle, N.s (the compiled DEM sums both in its time loop; the
+LIGGGHTS deck sums S_c and has S_s in its wall power, :func:`sine_sums_from_wall_work`). The walls
+move as z_w = W (cos(omega t) - 1) (LIGGGHTS' ``viblin``, and the DEM's walls where LIGGGHTS puts
+its mesh): after step n they stand at dt sum_{k <= n} v_w(t_k) = z_w(t_n + dt / 2) - z_w(dt / 2),
+so theta_n is the wall's phase when F_n is evaluated. Over a whole cycle the discrete sums of cos(theta_n), sin(theta_n) and
 their cross product vanish and those of cos^2 and sin^2 are N / 2, exactly: a force
 A cos(theta_n) + B sin(theta_n) + F_0 returns S_c = A T / 2 and S_s = B T / 2, and the weight
 (the constant F_0) has no first harmonic.
@@ -22,17 +22,19 @@ With a_w = -W omega^2 cos(theta) and v_w = -W omega sin(theta),
 
 - the effective mass m_eff = S_c / (pi W omega), kg: the force in phase with minus the wall's
   acceleration. A rigid mass m riding the wall pushes on it with F = -m a_w - m g, so
-  m_eff = m (times sin(omega dt / 2) / (omega dt / 2), the discrete wall's acceleration; 1 - 4e-7 at
-  1000 steps a cycle); a bed in free flight, 0.
+  m_eff = m (times sin(omega dt / 2) / (omega dt / 2), the discrete wall's acceleration:
+  1 - 1.6e-6 at 1000 steps a cycle); a bed in free flight, 0.
 - the force-based C_eq = S_s / (pi W), N.s/m: the force in phase with the wall's velocity. A
   dashpot c on the wall pushes on it with F = -c v_w, so C_eq = c.
 
 The walls' work on the spheres over the cycle is W omega S_s (the decks' and the kernel's wall
 work, to a factor cos(omega dt / 2) and terms at the cycle's two ends), so the force-based C_eq
 equals the energy-based one, E_d / (pi omega W^2), wherever the spheres' energy returns to itself
-over the measured cycles: the ledger check (:func:`ledger_check`) compares the two estimates,
-one from the force and one from the energy balance (LIGGGHTS) or the contacts' own dissipation
-(DEM); a difference is a drift of the bed's energy over the window or a broken ledger.
+over the measured cycles: the ledger check (:func:`ledger_check`) compares the two estimates. In
+the DEM S_s is summed apart from the wall work and E_d is the contacts' own dissipation, term by
+term; in LIGGGHTS S_s is the wall work (:func:`sine_sums_from_wall_work`) and E_d the balance's,
+so there the check is one of the bed's energy drift over the window. A difference is such a
+drift or a broken ledger.
 
 Standard errors are the ones C_eq carries: each cell's series through
 :func:`pidpipe.measurement.statistics.standard_error` (blocks of cycles, AR(1)), the cells
