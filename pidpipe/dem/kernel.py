@@ -659,8 +659,15 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
     z_unit = np.empty(steps_per_cycle)
     v_unit = np.empty(steps_per_cycle)
+    # the weights of the first-harmonic sums: the walls' phase when the force of a step is
+    # evaluated (they stand at z_w(t + dt/2) - z_w(dt/2)), the same in every cycle (computed once
+    # per call, from the step within the cycle, so that a run split into calls sums alike)
     cos_unit = np.empty(steps_per_cycle)
     sin_unit = np.empty(steps_per_cycle)
+    within = step0 % steps_per_cycle
+    for s in range(steps_per_cycle):
+        cos_unit[s] = math.cos(omega * ((within + s + 1.5) * dt))
+        sin_unit[s] = math.sin(omega * ((within + s + 1.5) * dt))
     pairs, work_rows, lane = _scratch(n)
     near, near_n, anchor = _near_scratch(n_batch, n)
     floor_k, lid_k = _floor_and_lid(normals)
@@ -679,10 +686,6 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
             # contacts' wall velocity is also the wall's own move over the step
             z_unit[s] = _viblin_unit_z(step, omega, dt)
             v_unit[s] = -omega * math.sin(omega * (step * dt))
-            # the walls' phase when the force of the step is evaluated (they stand at
-            # z_w(t + dt/2) - z_w(dt/2)): the weights of the first-harmonic sums
-            cos_unit[s] = math.cos(omega * ((step + 0.5) * dt))
-            sin_unit[s] = math.sin(omega * ((step + 0.5) * dt))
         for b in range(n_batch):
             cell, history = body[b], hist[b]
             near_b, near_nb, anchor_b = near[b], near_n[b], anchor[b]
