@@ -13,10 +13,10 @@ n over the N = T / dt steps of the cycle, N.s (the compiled DEM sums both in its
 LIGGGHTS deck sums S_c and has S_s in its wall power, :func:`sine_sums_from_wall_work`). The walls
 move as z_w = W (cos(omega t) - 1) (LIGGGHTS' ``viblin``, and the DEM's walls where LIGGGHTS puts
 its mesh): after step n they stand at dt sum_{k <= n} v_w(t_k) = z_w(t_n + dt / 2) - z_w(dt / 2),
-so theta_n is the wall's phase when F_n is evaluated. Over a whole cycle the discrete sums of cos(theta_n), sin(theta_n) and
-their cross product vanish and those of cos^2 and sin^2 are N / 2, exactly: a force
-A cos(theta_n) + B sin(theta_n) + F_0 returns S_c = A T / 2 and S_s = B T / 2, and the weight
-(the constant F_0) has no first harmonic.
+so theta_n is the wall's phase when F_n is evaluated. Over a whole cycle the discrete sums of
+cos(theta_n), sin(theta_n) and their cross product vanish and those of cos^2 and sin^2 are N / 2,
+exactly: a force A cos(theta_n) + B sin(theta_n) + F_0 returns S_c = A T / 2 and S_s = B T / 2,
+and the weight (the constant F_0) has no first harmonic.
 
 With a_w = -W omega^2 cos(theta) and v_w = -W omega sin(theta),
 

@@ -5,6 +5,7 @@ and the harmonics files read back."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,8 @@ from pidpipe.dem.case import run_dem_case
 from pidpipe.errors import ParseError
 from pidpipe.liggghts.parsing import read_cos_sums
 from pidpipe.liggghts.shake import run_case
+from pidpipe.measurement.harmonics import sine_sums_from_wall_work
+from pidpipe.physics.equivalent_damping import displacement_amplitude_m
 from tests.conftest import short_config
 
 RIDER = CaseSpec(100, 0.3, 50)
@@ -73,3 +76,24 @@ def test_harmonics_files_are_read_for_one_cell_and_for_several(tmp_path):
         read_cos_sums(tmp_path / "h.txt", tmp_path / "no.txt", 0.5, 3, 1)
     with pytest.raises(ParseError, match="missing"):
         read_cos_sums(tmp_path / "h.txt", tmp_path / "no.txt", 0.5, 2, 2)
+
+
+FIXTURE = Path(__file__).parents[1] / "fixtures" / "shake_500Hz_5g_harmonics"
+
+
+def test_real_harmonics_files_are_read():
+    """Real output: six cycles of S_c; the first of two cells side by side (from its spheres'
+    forces) is the same packing shaken alone (from the mesh's force), to the 6 digits written."""
+    period = 1.0 / 500.0
+    one = read_cos_sums(FIXTURE / "harmonics.txt", FIXTURE / "absent.txt", period, 6, 1)
+    two = read_cos_sums(FIXTURE / "absent.txt", FIXTURE / "two_cells_cell_harmonics.txt", period, 6, 2)
+    assert one.shape == (1, 6) and two.shape == (2, 6)
+    np.testing.assert_allclose(two[0], one[0], rtol=1e-5)
+    assert not np.allclose(two[1], one[0], rtol=1e-2)
+    # and S_s, from each one's wall power (the mesh's; the cell's)
+    amplitude, omega = displacement_amplitude_m(500.0, 5.0), 2 * math.pi * 500.0
+    timestep = period / 2223
+    mesh = np.loadtxt(FIXTURE / "power.txt")[:, 1] * period
+    cell = np.loadtxt(FIXTURE / "two_cells_cell_power.txt")[1:, 1] * period
+    np.testing.assert_allclose(sine_sums_from_wall_work(cell, amplitude, omega, timestep),
+                               sine_sums_from_wall_work(mesh, amplitude, omega, timestep), rtol=1e-5)
