@@ -40,6 +40,7 @@ from pidpipe.liggghts.parsing import CycleSeries
 from pidpipe.liggghts.shake import checked_packing_list, containment_flags
 from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.harmonics import harmonics_record
 from pidpipe.measurement.inspection import motion_record
 from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
@@ -178,8 +179,13 @@ def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing]
         motion, transient, scene.steps_per_cycle, settings.motion.windows_per_cycle,
         [float(np.ptp(packing.centres()[:, 2])) for packing in packings]))
     mismatch = balance_mismatch(series.dissipated_j, balance.sum(axis=0), series.gross_work_j)
+    harmonics = harmonics_record(cycles["harmonic_cos_n_s"], cycles["harmonic_sin_n_s"], transient,
+                                 case.freq_hz, case.accel_g, scene.mass_kg * packings[0].n_spheres,
+                                 block, summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"],
+                                 series.energy_j)
     flags = (containment_flags(cell_scene, series, displacement_amplitude_m(case.freq_hz, case.accel_g))
-             + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else []))
+             + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else [])
+             + harmonics["flags"])
     measured = slice(transient, None)
     return CaseRecord(
         solver=SOLVER_NAME,
@@ -211,6 +217,7 @@ def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing]
                 f"{term}_{ctype}_j": float(cycles[f"{term}_{ctype}_j"][:, measured].mean())
                 for term in DISSIPATION_TERMS for ctype in CONTACT_TYPES},
         },
+        harmonics=harmonics,
     )
 
 

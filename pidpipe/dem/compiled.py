@@ -131,6 +131,7 @@ def _run(state: State, ws: KernelWorkspace, n_cycles: int, steps_per_cycle: int,
     work, gross = np.zeros((n_batch, n_cycles)), np.zeros((n_batch, n_cycles))
     terms = np.zeros((4, 2, n_batch, n_cycles))
     energy = np.zeros((kernel.N_ENERGY_ROWS, n_batch, n_cycles + 1))
+    harmonics = np.zeros((2, n_batch, n_cycles))
     end = state.step + n_cycles * steps_per_cycle
     if motion is None:
         n_windows = end // motion_window if motion_window > 0 else 0
@@ -138,9 +139,9 @@ def _run(state: State, ws: KernelWorkspace, n_cycles: int, steps_per_cycle: int,
     _call(kernel.run, *ws.state_arrays(state), int(state.step), int(n_cycles),
           int(steps_per_cycle), bool(reset), ws.terms_raw, ws.wall_work_acc,
           ws.gross_wall_work_acc, np.ascontiguousarray(reference, dtype=float), work, gross,
-          terms, energy, int(motion_window), int(motion_every), motion)
+          terms, energy, int(motion_window), int(motion_every), motion, harmonics)
     state.step = end
-    return work, gross, terms, energy, motion
+    return work, gross, terms, energy, motion, harmonics
 
 
 def advance(state: State, ws: KernelWorkspace, n_steps: int) -> None:
@@ -169,21 +170,25 @@ def run_cycles(scene: Scene, state: State, ws: KernelWorkspace, n_cycles: int,
         n_cycles) by term and contact type; and at the n_cycles + 1 boundaries
         ``kinetic_translational``, ``kinetic_rotational``, ``potential``, ``elastic``,
         ``ledger`` (J), ``centre_of_mass_z_m``, ``lowest_z_m`` and ``highest_z_m`` (the
-        lowest and highest sphere centre, lab frame, m), each (n_batch, n_cycles + 1).
+        lowest and highest sphere centre, lab frame, m), each (n_batch, n_cycles + 1);
+        ``harmonic_cos_n_s``, ``harmonic_sin_n_s`` (n_batch, n_cycles), each cycle's
+        first-harmonic sums S_c and S_s of the spheres' z force on the walls, N s
+        (:mod:`pidpipe.measurement.harmonics`).
     """
     if motion_window > 0 and motion_window % motion_every:
         raise ValueError(f"motion samples every {motion_every} steps do not divide windows of "
                          f"{motion_window} steps")
-    work, gross, terms, energy, motion = _run(state, ws, int(n_cycles), scene.steps_per_cycle,
-                                              True, reference_height_m, motion_window,
-                                              motion_every, motion)
+    work, gross, terms, energy, motion, harmonics = _run(
+        state, ws, int(n_cycles), scene.steps_per_cycle, True, reference_height_m,
+        motion_window, motion_every, motion)
     extra = {"motion": motion} if motion_window > 0 else {}
     return dict(**extra, wall_work_j=work, gross_work_j=gross, terms_j=terms,
                 kinetic_translational=energy[kernel.E_TRANS],
                 kinetic_rotational=energy[kernel.E_ROT], potential=energy[kernel.E_POT],
                 elastic=energy[kernel.E_ELASTIC], ledger=energy[kernel.E_LEDGER],
                 centre_of_mass_z_m=energy[kernel.E_COM], lowest_z_m=energy[kernel.E_LOWEST],
-                highest_z_m=energy[kernel.E_HIGHEST])
+                highest_z_m=energy[kernel.E_HIGHEST], harmonic_cos_n_s=harmonics[0],
+                harmonic_sin_n_s=harmonics[1])
 
 
 def set_base_motion(ws: KernelWorkspace, scene: Scene) -> None:

@@ -10,8 +10,9 @@ equations), written contact by contact instead of as dense arrays:
   velocity Verlet in LIGGGHTS' order;
 - the ledgers inside the loop: the walls' work over the displacement they actually made in
   each step (the half-step wall move), the four dissipation terms (normal damping, friction,
-  tangential damping, tangential spring) by contact type, and at every cycle boundary the
-  energies K, K_rot, P, U and the ledger total K^ + P + U.
+  tangential damping, tangential spring) by contact type, the first-harmonic sums of the
+  spheres' z force on the walls (:mod:`pidpipe.measurement.harmonics`), and at every cycle
+  boundary the energies K, K_rot, P, U and the ledger total K^ + P + U.
 
 Cells are independent, so within each cycle the loop runs cell by cell and step by step; the
 wall's motion over the cycle is computed once for all cells. A sphere
@@ -613,7 +614,7 @@ def set_up(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, 
 def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags, normals,
         offsets, amplitude, step0, n_cycles, steps_per_cycle, reset, acc, acc_work, acc_gross,
         reference, out_work, out_gross, out_terms, out_energy, motion_window, motion_every,
-        out_motion):
+        out_motion, out_harmonics):
     """Advance every cell by ``n_cycles * steps_per_cycle`` steps from step ``step0``.
 
     Parameters (shapes; nb cells, n spheres, m = n + 8 partner columns)
@@ -642,6 +643,10 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
         w * motion_window + 1 .. (w + 1) * motion_window from step 0 and boundary w is the end
         of step w * motion_window; only the windows and boundaries this call reaches are
         written (sums are added to), and steps past column n_windows are not sampled
+    out_harmonics : (2, nb, n_cycles), N s: the spheres' z force on the walls (minus the walls'
+        on them) summed over each cycle's steps n times dt cos(theta_n) (row 0) and
+        dt sin(theta_n) (row 1), theta_n = omega (n + 1/2) dt the walls' phase
+        (:mod:`pidpipe.measurement.harmonics`)
     """
     _pack(x, v, w, f, t, body)
     n = x.shape[2]
@@ -654,6 +659,15 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
     # the wall's motion over a cycle, W = 1 (the same for every cell: computed once)
     z_unit = np.empty(steps_per_cycle)
     v_unit = np.empty(steps_per_cycle)
+    # the weights of the first-harmonic sums: the walls' phase when the force of a step is
+    # evaluated (they stand at z_w(t + dt/2) - z_w(dt/2)), the same in every cycle (computed once
+    # per call, from the step within the cycle, so that a run split into calls sums alike)
+    cos_unit = np.empty(steps_per_cycle)
+    sin_unit = np.empty(steps_per_cycle)
+    within = step0 % steps_per_cycle
+    for s in range(steps_per_cycle):
+        cos_unit[s] = math.cos(omega * ((within + s + 1.5) * dt))
+        sin_unit[s] = math.sin(omega * ((within + s + 1.5) * dt))
     pairs, work_rows, lane = _scratch(n)
     near, near_n, anchor = _near_scratch(n_batch, n)
     floor_k, lid_k = _floor_and_lid(normals)
@@ -685,6 +699,7 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
             fz_prev = wall_fz[b]
             work_sum = acc_work[b]
             gross_sum = acc_gross[b]
+            cos_sum = sin_sum = 0.0
             for s in range(steps_per_cycle):
                 _kick_drift(cell, half_over_m, half_over_i, dt, rotation)
                 zw = amp * z_unit[s]
@@ -697,6 +712,8 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
                 fz_prev = fz
                 work_sum += work
                 gross_sum += abs(work)
+                cos_sum += fz * cos_unit[s]
+                sin_sum += fz * sin_unit[s]
                 _add_terms(acc, b, out)
                 _kick(cell, half_over_m, half_over_i, rotation)
                 if motion_window > 0:
@@ -717,6 +734,8 @@ def run(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, fla
             acc_gross[b] = gross_sum
             out_work[b, cycle] = work_sum
             out_gross[b, cycle] = gross_sum
+            out_harmonics[0, b, cycle] = -cos_sum * dt
+            out_harmonics[1, b, cycle] = -sin_sum * dt
             _cycle_terms(acc, b, dt, out_terms, cycle)
             _ledger(cell, history, p, rotation, reference[b], out_energy[:, b, cycle + 1])
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)

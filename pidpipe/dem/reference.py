@@ -10,6 +10,7 @@ times slower than the kernel; nothing outside the tests runs it.
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
@@ -58,6 +59,8 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int,
     work = np.zeros((n_batch, n_cycles))
     gross = np.zeros((n_batch, n_cycles))
     terms = np.zeros((len(DISSIPATION_TERMS), len(CONTACT_TYPES), n_batch, n_cycles))
+    harmonics = np.zeros((2, n_batch, n_cycles))
+    dt, omega = scene.timestep_s, scene.omega_rad_s
     reference = centre_of_mass_height(state)
     boundary = [ledger_energy(scene, state, ws, reference)]
     heights = [(reference, state.x[2].min(axis=1), state.x[2].max(axis=1))]
@@ -65,6 +68,10 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int,
         reset_accumulators(ws)
         for _ in range(scene.steps_per_cycle):
             step(scene, state, ws, walls)
+            # the spheres' force on the walls at the walls' phase (pidpipe.measurement.harmonics)
+            theta = omega * ((state.step + 0.5) * dt)
+            harmonics[0, :, cycle] -= ws.wall_force_z * (math.cos(theta) * dt)
+            harmonics[1, :, cycle] -= ws.wall_force_z * (math.sin(theta) * dt)
         work[:, cycle] = ws.wall_work_acc
         gross[:, cycle] = ws.gross_wall_work_acc
         terms[..., cycle] = accumulated_dissipation(ws, scene.timestep_s)
@@ -73,4 +80,4 @@ def run_cycles(scene: Scene, state: State, ws: Workspace, n_cycles: int,
                         state.x[2].max(axis=1)))
     stack = {key: np.stack([b[key] for b in boundary], axis=1) for key in boundary[0]}
     com, lowest, highest = (np.stack(column, axis=1) for column in zip(*heights))
-    return cycle_ledgers(work, gross, terms, stack, com, lowest, highest)
+    return cycle_ledgers(work, gross, terms, stack, com, lowest, highest, *harmonics)

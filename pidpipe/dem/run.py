@@ -134,6 +134,8 @@ def run_cycles(scene: Scene, state: State, ws: compiled.KernelWorkspace, n_cycle
         - ``centre_of_mass_z_m``, ``lowest_z_m``, ``highest_z_m``: the centre of mass and the
           lowest and highest sphere centre at the boundaries (lab frame), shape
           (n_batch, n_cycles + 1), m
+        - ``harmonic_cos_n_s``, ``harmonic_sin_n_s``: the first-harmonic sums S_c and S_s of
+          the spheres' z force on the walls (:mod:`pidpipe.measurement.harmonics`), N s
     """
     return run_cycles_sampled(scene, state, ws, n_cycles, None)[0]
 
@@ -235,7 +237,8 @@ class CycleRun:
         out = self._out
         boundary = {key: out[key] for key in BOUNDARY_KEYS[:5]}
         return cycle_ledgers(out["wall_work_j"], out["gross_work_j"], out["terms_j"], boundary,
-                             out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"])
+                             out["centre_of_mass_z_m"], out["lowest_z_m"], out["highest_z_m"],
+                             out["harmonic_cos_n_s"], out["harmonic_sin_n_s"])
 
     def motion(self) -> BedMotion | None:
         """The bed's motion in every whole window so far (as :func:`run_cycles_sampled`), or
@@ -273,7 +276,8 @@ def bed_motion(scene: Scene, state: State, sampled: np.ndarray, window_steps: in
 
 def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
                   boundary: dict[str, np.ndarray], com: np.ndarray, lowest: np.ndarray,
-                  highest: np.ndarray) -> dict:
+                  highest: np.ndarray, harmonic_cos: np.ndarray,
+                  harmonic_sin: np.ndarray) -> dict:
     """The per-cycle record of :func:`run_cycles` from its parts.
 
     Parameters
@@ -287,6 +291,9 @@ def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
         ``ledger`` at the cycle boundaries, J.
     com, lowest, highest : ndarray, shape (n_batch, n_cycles + 1)
         Centre-of-mass height, and the lowest and highest sphere centre, at the boundaries, m.
+    harmonic_cos, harmonic_sin : ndarray, shape (n_batch, n_cycles)
+        First-harmonic sums S_c and S_s of the spheres' z force on the walls per cycle, N s
+        (:mod:`pidpipe.measurement.harmonics`).
     """
     change = np.diff(boundary["ledger"], axis=1)
     out = dict(wall_work_j=work, gross_work_j=gross, energy_change_j=change,
@@ -299,6 +306,7 @@ def cycle_ledgers(work: np.ndarray, gross: np.ndarray, terms: np.ndarray,
     out["ledger_energy_j"] = boundary["ledger"]
     out["centre_of_mass_z_m"] = com
     out["lowest_z_m"], out["highest_z_m"] = lowest, highest
+    out["harmonic_cos_n_s"], out["harmonic_sin_n_s"] = harmonic_cos, harmonic_sin
     return out
 
 

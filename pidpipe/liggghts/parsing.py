@@ -13,6 +13,10 @@ With several cells in one run (:mod:`pidpipe.replicate_cells`) the energy file h
 columns for each cell in turn, and a third file, the cell power file, has each cell's mean
 power over each cycle (:func:`read_shake_cycles`).
 
+The harmonics file holds the cycle means of the spheres' z force on the mesh times the cosine
+of the walls' phase; with several cells, the cell harmonics file has that of each cell
+(:func:`read_cos_sums`, :mod:`pidpipe.measurement.harmonics`).
+
 The shake deck also dumps every particle-particle and particle-wall contact at the same cycle
 boundaries (``dump local``, :data:`CONTACT_COLUMNS`): the overlap and the tangential spring of
 each, from which :mod:`pidpipe.liggghts.contact_energy` computes the elastic energy held in the contacts.
@@ -196,6 +200,41 @@ def read_shake_cycles(power_path: str | Path, energy_path: str | Path, period_s:
     mesh = replace(total, wall_work_j=mesh_work, gross_work_j=mesh_gross,
                    dissipated_j=mesh_work - np.diff(total.energy_j))
     return cells, mesh
+
+
+def read_cos_sums(harmonics_path: str | Path, cell_harmonics_path: str | Path, period_s: float,
+                  expected_cycles: int, n_cells: int) -> np.ndarray:
+    """Each cell's S_c, the sum over each cycle of its spheres' z force on the walls times the
+    cosine of the walls' phase (:mod:`pidpipe.measurement.harmonics`): the cycle mean the deck
+    wrote times the period.
+
+    Parameters
+    ----------
+    harmonics_path : path
+        One cell: the harmonics file (step, the mesh's mean of F cos).
+    cell_harmonics_path : path
+        Several cells: the cell harmonics file (step, each cell's mean of F cos; a row at
+        step 0 is dropped).
+    period_s : float
+        Period of the base motion, s.
+    expected_cycles, n_cells : int
+
+    Returns
+    -------
+    ndarray, shape (n_cells, expected_cycles)
+        N s.
+
+    Raises
+    ------
+    ParseError
+        Missing or truncated output.
+    """
+    path = harmonics_path if n_cells == 1 else cell_harmonics_path
+    table = without_step_zero(read_ave_time(path, 1 + n_cells))
+    if len(table) != expected_cycles:
+        raise ParseError(f"{path} has {len(table)} rows, expected {expected_cycles} "
+                         "(truncated run?)")
+    return table[:, 1:].T * period_s
 
 
 def _read_cycle_tables(power_path: str | Path, energy_path: str | Path, expected_cycles: int,

@@ -30,10 +30,11 @@ from pidpipe.liggghts.motion import WINDOW_FILE as MOTION_WINDOW_FILE
 from pidpipe.liggghts.motion import motion_deck_values
 from pidpipe.liggghts.movie import DUMP_FILE as MOVIE_DUMP_FILE
 from pidpipe.liggghts.movie import movie_deck_values
-from pidpipe.liggghts.parsing import CycleSeries, read_shake_cycles
+from pidpipe.liggghts.parsing import CycleSeries, read_cos_sums, read_shake_cycles
 from pidpipe.liggghts.process import run_deck
 from pidpipe.measurement.case_record import CaseRecord
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.harmonics import harmonics_record, sine_sums_from_wall_work
 from pidpipe.measurement.run_record import fidelity_record
 from pidpipe.measurement.steady_state import assess_steady_state
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2, sphere_mass
@@ -42,6 +43,8 @@ from pidpipe.physics.timestep import HERTZ_FRACTION_LIMIT, TIMESTEP_CHECKS_PER_C
 
 POWER_FILE = "power.txt"
 CELL_POWER_FILE = "cell_power.txt"
+HARMONICS_FILE = "harmonics.txt"
+CELL_HARMONICS_FILE = "cell_harmonics.txt"
 ENERGY_FILE = "energy.txt"
 PAIR_CONTACT_FILE = "pair_contacts.dump"
 WALL_CONTACT_FILE = "wall_contacts.dump"
@@ -109,6 +112,8 @@ def render_shake_deck(settings: ShakeSettings, case: CaseSpec,
                   velocity_amplitude_m_s=amplitude * omega,
                   steps_per_cycle=plan.steps_per_cycle, total_steps=plan.steps_per_cycle * cycles,
                   power_file=POWER_FILE, energy_file=ENERGY_FILE,
+                  harmonics_file=HARMONICS_FILE, cell_harmonics_file=CELL_HARMONICS_FILE,
+                  mesh_harmonics=len(cells) == 1,
                   pair_contact_file=PAIR_CONTACT_FILE, wall_contact_file=WALL_CONTACT_FILE,
                   timestep_check_every=max(1, plan.steps_per_cycle // TIMESTEP_CHECKS_PER_CYCLE),
                   rayleigh_fraction_limit=settings.fidelity.timestep_rayleigh_fraction * (1.0 + 1e-6),
@@ -194,7 +199,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
     workdir.mkdir(parents=True, exist_ok=True)
     packings = checked_packing_list(packings, case.case_id)
     for stale in (POWER_FILE, CELL_POWER_FILE, ENERGY_FILE, PAIR_CONTACT_FILE, WALL_CONTACT_FILE, MOTION_WINDOW_FILE,
-                  MOTION_ENERGY_FILE, MOVIE_DUMP_FILE):
+                  MOTION_ENERGY_FILE, MOVIE_DUMP_FILE, HARMONICS_FILE, CELL_HARMONICS_FILE):
         (workdir / stale).unlink(missing_ok=True)
     plan = render_shake_deck(settings, case, packings, workdir, movie=movie,
                              mesh_subdivisions=mesh_subdivisions)
@@ -213,9 +218,12 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
                             dissipated_j=cell.dissipated_j.tolist())
     inspection = inspection_record(plan, workdir, case.accel_g, packings, transient,
                                    plan["scene"].cell, settings.motion, movie, movie_dir)
+    harmonics = run_harmonics(plan, workdir, case, transient, sampling.sem_block_cycles, summary,
+                              cells, series)
     flags = (containment_flags(plan["scene"], series, plan["amplitude_m"])
              + timestep_flags(engine.timestep_warnings) + steady.flags
-             + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else []))
+             + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else [])
+             + harmonics["flags"])
     return CaseRecord(
         solver="liggghts",
         case_id=case.case_id,
@@ -250,6 +258,7 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
             "host": platform.node(),
         },
         wall_time_s=time.perf_counter() - started,
+        harmonics=harmonics,
     )
 
 
@@ -279,3 +288,37 @@ def read_cell_series(scene: CellScene, plan: dict,
     cells_work = np.sum([cell.wall_work_j for cell in cells], axis=0)
     gross = mesh.gross_work_j.mean()
     return cells, mesh, float(np.max(np.abs(cells_work - mesh.wall_work_j)) / gross) if gross > 0 else 0.0
+
+
+def run_harmonics(plan: dict, workdir: Path, case: CaseSpec, transient: int, block_cycles: int,
+                  summary: dict, cells: list[CycleSeries], series: CycleSeries) -> dict:
+    """The record's ``harmonics`` (:func:`pidpipe.measurement.harmonics.harmonics_record`): each
+    cell's S_c from the harmonics files, its S_s from its wall work
+    (:func:`pidpipe.measurement.harmonics.sine_sums_from_wall_work`), against the mean cell's
+    energy-based C_eq (``summary``); ``series``, all cells' energies, for a flag's reason."""
+    cos_sums = read_cos_sums(workdir / HARMONICS_FILE, workdir / CELL_HARMONICS_FILE,
+                             plan["period_s"], plan["cycles"], len(cells))
+    omega = 2.0 * math.pi * case.freq_hz
+    sin_sums = np.array([sine_sums_from_wall_work(cell.wall_work_j, plan["amplitude_m"], omega,
+                                                  plan["timestep"].timestep_s) for cell in cells])
+    bed_mass = float(np.mean([cell["weight_n"] for cell in plan["cells"]])) / STANDARD_GRAVITY_M_S2
+    return harmonics_record(cos_sums, sin_sums, transient, case.freq_hz, case.accel_g, bed_mass,
+                            block_cycles, summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"],
+                            series.energy_j)
+
+
+def write_record(record: dict, path: str | Path) -> Path:
+    """Write a case record as JSON, atomically and flushed to disk: a reader never sees half a
+    file, and an interrupted write leaves no temporary file behind."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
+    try:
+        with open(tmp, "w", encoding="utf-8") as handle:
+            handle.write(json.dumps(record, indent=1, allow_nan=True))
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path

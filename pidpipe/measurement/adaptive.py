@@ -43,6 +43,7 @@ from pidpipe.config.settings import ShakeSettings
 from pidpipe.measurement.allocation import Components, Limits, Step, plan_next_step
 from pidpipe.measurement.case_record import CaseRecord, Fidelity
 from pidpipe.measurement.cells import summarise_cells
+from pidpipe.measurement.harmonics import LEDGER_FLAG, combine_harmonics
 from pidpipe.measurement.regime import NO_LIFT_OFF
 from pidpipe.measurement.steady_state import NOT_RESOLVED_SEMS, SIGN_FLAGS, sign_flags
 
@@ -364,7 +365,9 @@ def combine_runs(records: list[CaseRecord], freq_hz: float, accel_g: float,
         :func:`pidpipe.measurement.cells.summarise_cells` over every run's cells (each cell
         also names its ``run``); ``flags`` the union of the runs' own, with the sign flags
         (:func:`pidpipe.measurement.steady_state.sign_flags`) decided on the combined C_eq and
-        SEM; ``status`` from them; ``fidelity.seeds`` every cell's seed and ``fidelity.cells``
+        SEM, and the force-energy ledger flag on the combined ``harmonics``
+        (:func:`pidpipe.measurement.harmonics.combine_harmonics`, when every run has them);
+        ``status`` from them; ``fidelity.seeds`` every cell's seed and ``fidelity.cells``
         their number. ``cycles`` and the steady-state fields stay the last run's.
     """
     last = records[-1]
@@ -379,10 +382,15 @@ def combine_runs(records: list[CaseRecord], freq_hz: float, accel_g: float,
             entry.update(run=index, seed=cell["seed"], n_spheres=cell["n_spheres"],
                          pile_height_m=cell["pile_height_m"], dissipated_j=cell["dissipated_all_j"])
         summary["cells"] = own
-    flags = [flag for record in records for flag in record.flags if flag not in SIGN_FLAGS]
-    flags = list(dict.fromkeys(flags + sign_flags(summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])))
+    harmonics = (combine_harmonics(records, summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])
+                 if all(record.harmonics is not None for record in records) else last.harmonics)
+    flags = [flag for record in records for flag in record.flags
+             if flag not in SIGN_FLAGS and flag != LEDGER_FLAG]
+    flags = list(dict.fromkeys(flags + sign_flags(summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"])
+                               + list((harmonics or {}).get("flags", []))))
     fidelity = Fidelity(last.fidelity, seeds=[int(cell["seed"]) for _, cell in cells], cells=len(cells))
-    return last.with_(**summary, flags=flags, status="flagged" if flags else "ok", fidelity=fidelity)
+    return last.with_(**summary, flags=flags, status="flagged" if flags else "ok", fidelity=fidelity,
+                      harmonics=harmonics)
 
 
 def run_to_target(settings: ShakeSettings, case, packings, workdir: str | Path,

@@ -261,6 +261,7 @@ class CaseRecord:
     wall_time_s: float = NAN
     target: Target | None = None
     engine_attempts: int | None = None
+    harmonics: dict | None = None
 
     def __post_init__(self):
         if self.status not in STATUSES:

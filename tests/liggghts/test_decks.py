@@ -57,7 +57,12 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
     assert "fix             cycle_power all ave/time 1 2223 2223 v_power v_abs_power file" in text
     # each cell's power: one per-sphere pass a step, summed per cell only at the cycle ends
     assert "fix             sphere_cycle_power all ave/atom 1 2223 2223 v_sphere_power" in text
-    assert " c_cycle_power_cell0 c_cycle_power_cell1 file cell_power.txt" in text
+    assert " c_cycle_power_cell0[1] c_cycle_power_cell1[1] file cell_power.txt" in text
+    # and each cell's first-harmonic sum in the same pass (pidpipe.measurement.harmonics),
+    # not the mesh's
+    assert ("ave/atom 1 2223 2223 v_sphere_power v_sphere_force_cos\n" in text
+            and " c_cycle_power_cell0[2] c_cycle_power_cell1[2] file cell_harmonics.txt" in text)
+    assert "cycle_harmonics" not in text
     assert "equal (fcm(" not in text
     assert text.count("mesh/surface/stress") == 1
     _compare("shake_two_cells.lmp", text)

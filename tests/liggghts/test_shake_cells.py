@@ -81,3 +81,17 @@ def test_one_cell_reports_no_spread(runs):
     assert math.isnan(alone[0].ceq_cell_between_cells_sem_ns_m)
     assert alone[0].ceq_cell_sem_ns_m == alone[0].ceq_cell_cycle_sem_ns_m
     assert list(alone[0].cells) == []
+
+
+def test_each_cells_first_harmonic_is_its_own(runs):
+    """Each cell's first-harmonic sums (pidpipe.measurement.harmonics): the first cell's, from
+    its spheres' forces, are those of the packing shaken alone, from the mesh's force (6 digits
+    each)."""
+    together, alone = runs
+    harmonics = together.harmonics
+    assert len(harmonics["cells"]) == 3 and len(harmonics["cos_sums_n_s"]) == 3
+    single = alone[0].harmonics
+    scale = np.mean(np.hypot(single["cos_sums_n_s"][0], single["sin_sums_n_s"][0]))
+    for key in ("cos_sums_n_s", "sin_sums_n_s"):
+        difference = np.array(harmonics[key][0]) - np.array(single[key][0])
+        assert np.max(np.abs(difference)) < 1e-5 * scale, key
