@@ -20,7 +20,11 @@ Fitted with the SEM the case reports (the flag is about **precision**, not valid
 larger than asked, and honest), ``not_resolved`` (the mean is within a few SEMs of zero: a small
 value with its noise, typically at 1 g where the spheres barely lift off), ``not_steady`` and
 ``not_stationary`` (the steady-state checks: a transient not clearly over, or the two halves of
-the measured window differ). Such rows used to leave holes (at the 5 % target 20 of the 60
+the measured window differ), and ``ledger_force_energy`` (the force-based C_eq, from the first
+harmonic of the spheres' force, and the energy-based one differ by more than 3 combined SEM,
+:mod:`pidpipe.measurement.harmonics`: the bed's stored energy drifted over the window, as in
+``not_stationary``; both ledgers are over the same cycles, so the difference is the drift's,
+not a failed measurement). Such rows used to leave holes (at the 5 % target 20 of the 60
 default cases, nearly all at 1 g), which the surrogate bridged from 5 g; fitted with their
 noise they pull the fit toward what was measured as strongly as their noise allows, no more.
 A drifting series' SEM may understate its uncertainty; the GP's fitted excess noise
@@ -48,7 +52,7 @@ DROP_FLAGS: tuple[str, ...] = ("sphere_below_floor", "sphere_above_lid", "timest
                                "ledger_mismatch", "negative_dissipation")
 #: Flags about precision only: the row is fitted with its reported SEM.
 SPREAD_FLAGS: tuple[str, ...] = ("target_not_reached", "not_resolved", "not_steady",
-                                 "not_stationary")
+                                 "not_stationary", "ledger_force_energy")
 #: Statuses whose rows are dropped whatever their flags.
 DROP_STATUSES: tuple[str, ...] = ("failed", "missing")
 #: Replicate notes (``repN:<status>``) that say only which replicates were averaged.

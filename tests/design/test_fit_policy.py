@@ -64,9 +64,10 @@ def test_every_flag_the_campaign_writes_is_classed():
     # the measurement's flags by their constants; the checks of pidpipe.liggghts.shake and
     # pidpipe.dem.case are written as literals there
     from pidpipe.measurement.adaptive import TARGET_NOT_REACHED, UNSTEADY_FLAGS
+    from pidpipe.measurement.harmonics import LEDGER_FLAG
     from pidpipe.measurement.steady_state import SIGN_FLAGS
 
     written = {"sphere_below_floor", "sphere_above_lid", "timestep_check", "ledger_mismatch",
-               TARGET_NOT_REACHED, *UNSTEADY_FLAGS, *SIGN_FLAGS}
+               TARGET_NOT_REACHED, LEDGER_FLAG, *UNSTEADY_FLAGS, *SIGN_FLAGS}
     assert written == set(DROP_FLAGS) | set(SPREAD_FLAGS)
     assert not set(DROP_FLAGS) & set(SPREAD_FLAGS)
