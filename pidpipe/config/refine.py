@@ -39,7 +39,7 @@ class RefineSettings:
     def __post_init__(self) -> None:
         problems = self.problems()
         if problems:
-            raise ConfigError("; ".join(problems))
+            raise ConfigError("\n".join(problems))
 
     def problems(self) -> list[str]:
         """One line per bad setting (empty when all are good)."""
