@@ -2,7 +2,9 @@
 
 First, every verifying point that failed (|z| > ``flag_z``) is run again as a verifying case
 (``reverify``, pooled with its earlier runs) and gets a fitted case at the same point (a new
-case, or an extension when the table has one), reason saying which design and |z|.
+case, or an extension when the table has one), reason saying which design and |z|. A point
+the surrogate refused (outside its domain, :mod:`pidpipe.refine.predict`) gets the fitted case
+only, which widens the domain to it.
 
 Then, greedily, up to ``cases_per_round`` fitted cases in all, among the new-case and extension
 candidates of the open designs (:mod:`pidpipe.refine.candidates`). A candidate's gain is the
@@ -40,6 +42,7 @@ import pandas as pd
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
 from pidpipe.refine.candidates import EXTEND_FACTOR, Request, extend_candidates, new_case_candidates
 from pidpipe.refine.intervals import DesignInterval
+from pidpipe.refine.predict import predict_or_nan
 from pidpipe.refine.table import case_key
 
 #: Relative SEM a new case is expected to have when the table has none to go by.
@@ -94,7 +97,8 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list, intervals:
     open_designs : set of str
         ``environment/kind`` of the designs not yet done.
     failing : pandas.DataFrame
-        Verifying points with |z| > flag_z (:func:`pidpipe.refine.verification.compare` rows).
+        Verifying points with a DEM value that do not pass: |z| > flag_z, or no surrogate value
+        there (:func:`pidpipe.refine.verification.compare` rows).
     cost : callable
         ``cost(request) -> planned engine CPU, s``.
     cases_per_round : int
@@ -106,11 +110,13 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list, intervals:
     for key, part in failing.sort_values(["case_key", "design"]).groupby("case_key", sort=True):
         first = part.iloc[0]
         where = ", ".join(f"{d} {p}" for d, p in zip(part["design"], part["point"]))
-        worst = float(np.nanmax(np.abs(part["z"].to_numpy(dtype=float))))
-        reason = f"verify |z| = {worst:.2f} at {where}"
+        z = np.abs(part["z"].to_numpy(dtype=float))
+        reason = (f"verify |z| = {np.nanmax(z):.2f} at {where}" if np.isfinite(z).any()
+                  else f"verify point outside the surrogate's domain at {where}")
         point = (float(first["freq_hz"]), float(first["accel_g"]), float(first["fill_pct"]))
-        reverify.append(Request(*point, action="reverify", reason=reason,
-                                designs=tuple(part["design"]), run=int(first["runs"])))
+        if np.isfinite(z).any():                        # an outside point needs no rerun
+            reverify.append(Request(*point, action="reverify", reason=reason,
+                                    designs=tuple(part["design"]), run=int(first["runs"])))
         if len(cases) < cases_per_round:
             if key in fitted_keys:
                 row = fitted[fitted["case_key"] == key].iloc[-1]
@@ -165,8 +171,7 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
     f = np.array([c.freq_hz for c in candidates])
     g = np.array([c.accel_g for c in candidates])
     r = np.array([c.fill_pct for c in candidates])
-    mean, std = model.predict_with_uncertainty(f, g, r)
-    mean, std = np.asarray(mean, dtype=float), np.asarray(std, dtype=float)
+    mean, std = predict_or_nan(model, f, g, r)
     precision = np.empty(len(candidates))
     for i, c in enumerate(candidates):
         if c.action == "extend":
@@ -175,7 +180,7 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
         else:
             sem = max(relative_sem * abs(mean[i]), 1e-300)
             precision[i] = 1.0 / sem ** 2
-    reduction = variance_reduction(std, precision)
+    reduction = np.nan_to_num(variance_reduction(std, precision), nan=0.0)
     gains = np.zeros(len(candidates))
     for i, c in enumerate(candidates):
         for name in set(c.designs) & open_designs:

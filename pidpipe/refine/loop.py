@@ -157,7 +157,8 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
             return _finish(MAX_ROUNDS, _account(record, table, round_index), rounds, table,
                            results, intervals, model, on_round)
         open_designs = _open_designs(intervals, met, comparison)
-        failing = comparison[~comparison["passes"].astype(bool) & np.isfinite(comparison["z"])]
+        failing = comparison[~comparison["passes"].astype(bool)
+                             & np.isfinite(comparison["dem_ns_m"].to_numpy(dtype=float))]
         choice = choose(fitted, fit, model, results, intervals, open_designs, failing, cost,
                         settings.cases_per_round, settings.interval_fraction, spheres)
         wanted = list(choice.cases) + list(choice.reverify)
@@ -290,10 +291,17 @@ def _open_lines(intervals: list[DesignInterval], met: dict, comparison: pd.DataF
         if mine.empty:
             lines.append(f"{name}: not verified")
         elif not bad.empty:
-            shown = ", ".join(f"{p} |z| = {abs(z):.2f}" if np.isfinite(z) else f"{p} no DEM value"
-                              for p, z in zip(bad["point"], bad["z"]))
+            shown = ", ".join(_point_text(p, z, dem) for p, z, dem in
+                              zip(bad["point"], bad["z"], bad["dem_ns_m"]))
             lines.append(f"{name}: verify fails (|z| > {flag_z:g}) at {shown}")
     return lines
+
+
+def _point_text(point: str, z: float, dem: float) -> str:
+    """A failing point in an open line."""
+    if np.isfinite(z):
+        return f"{point} |z| = {abs(z):.2f}"
+    return f"{point} no DEM value" if not np.isfinite(dem) else f"{point} no surrogate value"
 
 
 def _finish(reason: str, record: RoundRecord, rounds: list, table, results, intervals, model,

@@ -7,7 +7,9 @@ standard deviation at the point's poured fill. Then
 
     z = (C_dem - C_s) / sqrt(SEM_dem^2 + sigma_s^2),
 
-and the point passes when |z| <= ``flag_z``. Verifying rows never enter a fit
+and the point passes when |z| <= ``flag_z``; a point without a DEM value, or without a
+surrogate value (outside a domain the surrogate refuses to leave,
+:func:`pidpipe.refine.predict.predict_or_nan`), does not pass. Verifying rows never enter a fit
 (:func:`pidpipe.refine.table.fit_table`), so z is an out-of-sample check in every round.
 """
 
@@ -17,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
+from pidpipe.refine.predict import predict_or_nan
 
 
 def pooled(rows: pd.DataFrame) -> pd.DataFrame:
@@ -57,9 +60,7 @@ def compare(points: pd.DataFrame, verify_rows: pd.DataFrame, model, flag_z: floa
     table = points.merge(pooled(verify_rows), on="case_key", how="left")
     if table.empty:
         return table.assign(surrogate_ns_m=[], surrogate_std_ns_m=[], z=[], passes=[])
-    mean, std = model.predict_with_uncertainty(table["freq_hz"].to_numpy(dtype=float),
-                                               table["accel_g"].to_numpy(dtype=float),
-                                               table["fill_pct"].to_numpy(dtype=float))
+    mean, std = predict_or_nan(model, table["freq_hz"], table["accel_g"], table["fill_pct"])
     table["surrogate_ns_m"] = np.asarray(mean, dtype=float)
     table["surrogate_std_ns_m"] = np.asarray(std, dtype=float)
     combined = np.sqrt(table["dem_sem_ns_m"] ** 2 + table["surrogate_std_ns_m"] ** 2)
