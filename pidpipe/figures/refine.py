@@ -66,8 +66,8 @@ def plot_refine(rounds: pd.DataFrame, stem: str | Path, interval_fraction: float
                     ax.set_ylabel("total $C_\\mathrm{eq}$ (N·s/m)")
                 if i == len(environments) - 1:
                     ax.set_xlabel("round")
-        figure.suptitle("Designs over the refinement's rounds (band: 95 % interval; "
-                        f"numbers: verify's worst |z|, red above {flag_z:g}; dashed: the criterion)")
+        figure.suptitle("Designs over the refinement's rounds (band: 95 % interval; numbers: "
+                        f"verify's worst |z|, red above {flag_z:g}; dashed: the criterion)")
         figure.tight_layout()
         stem = Path(stem)
         return [write_atomic(stem.with_suffix(suffix), lambda tmp, s=suffix: figure.savefig(

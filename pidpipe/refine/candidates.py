@@ -92,12 +92,14 @@ def whole_sphere_fills(fill_pct: float, full_cell_spheres: int, around: bool) ->
     return fills
 
 
-def design_points(result: OptimisationResult, full_cell_spheres: int) -> list[tuple[float, float, float]]:
+def design_points(result: OptimisationResult,
+                  full_cell_spheres: int) -> list[tuple[float, float, float]]:
     """New-case points (f Hz, G g, r %) of one design (see the module's text)."""
     (f_lo, f_hi), (g_lo, g_hi) = result.bounds["freq_hz"], result.bounds["accel_g"]
     if result.kind == "peak":
         f0, g0 = float(result.design.freq_hz), float(result.design.accel_g)
-        return [(f0, g0, r) for r in whole_sphere_fills(result.design.fill_pct, full_cell_spheres, True)]
+        fills = whole_sphere_fills(result.design.fill_pct, full_cell_spheres, True)
+        return [(f0, g0, r) for r in fills]
     fill, *around = whole_sphere_fills(result.design.fill_pct, full_cell_spheres, True)
     fs = (f_lo, 0.5 * (f_lo + f_hi), f_hi)
     gs = (g_lo, 0.5 * (g_lo + g_hi), g_hi)
@@ -122,7 +124,8 @@ def new_case_candidates(results: list[OptimisationResult], full_cell_spheres: in
     return [by_key[k] for k in sorted(by_key)]
 
 
-def near_design(rows: pd.DataFrame, result: OptimisationResult, full_cell_spheres: int) -> np.ndarray:
+def near_design(rows: pd.DataFrame, result: OptimisationResult,
+                full_cell_spheres: int) -> np.ndarray:
     """Which rows lie near a design (see the module's text); bool, shape (n_rows,)."""
     (f_lo, f_hi), (g_lo, g_hi) = result.bounds["freq_hz"], result.bounds["accel_g"]
     df, dg = 0.5 * (f_hi - f_lo), 0.5 * (g_hi - g_lo)
@@ -145,8 +148,8 @@ def extend_candidates(fitted: pd.DataFrame, results: list[OptimisationResult],
     requests = []
     for key in sorted(serves):
         row = ok[ok["case_key"] == key].iloc[-1]
-        requests.append(Request(float(row["freq_hz"]), float(row["accel_g"]), float(row["fill_pct"]),
-                                "extend", factor=EXTEND_FACTOR, base=row.to_dict(),
+        point = (float(row["freq_hz"]), float(row["accel_g"]), float(row["fill_pct"]))
+        requests.append(Request(*point, "extend", factor=EXTEND_FACTOR, base=row.to_dict(),
                                 designs=tuple(serves[key])))
     return requests
 

@@ -78,9 +78,9 @@ def variance_reduction(std: np.ndarray, added_precision: np.ndarray) -> np.ndarr
     return np.where(var > 0, var - after, 0.0)
 
 
-def choose(fitted: pd.DataFrame, fit: Callable, model, results: list, intervals: list[DesignInterval],
-           open_designs: set[str], failing: pd.DataFrame, cost: Callable[[Request], float],
-           cases_per_round: int, interval_fraction: float, full_cell_spheres: int) -> Choice:
+def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
+           intervals: list[DesignInterval], open_designs: set[str], failing: pd.DataFrame,
+           cost: Callable[[Request], float], cases_per_round: int, interval_fraction: float, full_cell_spheres: int) -> Choice:
     """The round's requests (see the module's text).
 
     Parameters
@@ -191,7 +191,8 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
     return gains
 
 
-def _with_fantasy(table: pd.DataFrame, request: Request, model, relative_sem: float) -> pd.DataFrame:
+def _with_fantasy(table: pd.DataFrame, request: Request, model,
+                  relative_sem: float) -> pd.DataFrame:
     """The table with the request's expected observation (see the module's text)."""
     if request.action == "extend":
         out = table.copy()

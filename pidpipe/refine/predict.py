@@ -32,7 +32,8 @@ def predict_or_nan(model, freq_hz, accel_g, fill_pct) -> tuple[np.ndarray, np.nd
     f, g, r = (np.atleast_1d(np.asarray(a, dtype=float)) for a in (freq_hz, accel_g, fill_pct))
     try:
         mean, std = model.predict_with_uncertainty(f, g, r)
-        return np.asarray(mean, dtype=float).reshape(f.shape), np.asarray(std, dtype=float).reshape(f.shape)
+        return (np.asarray(mean, dtype=float).reshape(f.shape),
+                np.asarray(std, dtype=float).reshape(f.shape))
     except DomainError:
         pass
     mean, std = np.full(f.shape, np.nan), np.full(f.shape, np.nan)

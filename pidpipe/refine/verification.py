@@ -1,4 +1,5 @@
-"""The designs' check: DEM at each verifying point against the surrogate, in combined standard errors.
+"""The designs' check: DEM at each verifying point against the surrogate, in combined standard
+errors.
 
 At a point, the DEM's value is the inverse-variance mean of every verifying run of that case so
 far (a point that failed is run again, and its runs pooled, rather than the failing run
