@@ -106,7 +106,10 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
     fit : callable
         ``fit(table) -> model``; the model has ``domain``, ``predict(f, G, r)`` and
         ``predict_with_uncertainty(f, G, r) -> (mean, std)`` (coupon C_eq, N*s/m; arrays of
-        the inputs' shape) and treats the rows' SEMs as their noise.
+        the inputs' shape; std the latent function's, without the noise), optionally
+        ``predict_joint(f, G, r) -> (mean, covariance)``; it fits only the rows whose
+        ``status`` is ``ok`` and treats their SEMs as their noise. It may refuse points outside
+        its domain (:class:`~pidpipe.errors.DomainError`).
     measure : callable
         ``measure(cases, more) -> rows``: runs the new cases (``Request``s) and extends the
         existing ones (``more``, each with the row it extends as ``base`` and the effort factor)

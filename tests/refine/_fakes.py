@@ -104,6 +104,7 @@ class GPSurrogate:
     rows' SEMs as their noise; ``predict_with_uncertainty`` returns the latent mean and std."""
 
     def __init__(self, table: pd.DataFrame):
+        table = table[table["status"] == "ok"]          # as pidpipe's fits: only usable rows
         x = table[["freq_hz", "accel_g", "fill_pct"]].to_numpy(dtype=float)
         y = table["ceq_coupon_ns_m"].to_numpy(dtype=float)
         sem = table["ceq_coupon_sem_ns_m"].to_numpy(dtype=float)
