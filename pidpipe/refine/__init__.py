@@ -4,5 +4,6 @@
 callables); :mod:`.table` keeps the append-only table that is the loop's state; :mod:`.intervals`
 takes each design's 95 % interval from the surrogate; :mod:`.candidates` lists what may run;
 :mod:`.choice` chooses a round's cases; :mod:`.verification` compares the verifying runs with the
-surrogate; :mod:`.outputs` writes the files.
+surrogate; :mod:`.outputs` writes the files; :mod:`.campaign` binds the loop to them (resuming
+from the table it wrote).
 """

@@ -77,3 +77,26 @@ def read_table(path: str | Path) -> pd.DataFrame:
             table[column] = table[column].fillna("").astype(str)
     table["refine_round"] = table["refine_round"].astype(int)
     return table
+
+
+def summary_record(outcome) -> dict:
+    """What stopped the loop, what is open, and each design's interval (for summary.json)."""
+    return {
+        "stopped_by": outcome.stopped_by,
+        "open": list(outcome.open),
+        "rounds_run": [record.round for record in outcome.rounds],
+        "planned_cpu_s": float(outcome.table["planned_cpu_s"].sum()),
+        "designs": [{"environment": i.environment, "design": i.kind, "fill_pct": i.fill_pct,
+                     "n_cells": i.n_cells, "total_ceq_ns_m": i.total_ceq_ns_m,
+                     "total_ceq_lo_ns_m": i.lo, "total_ceq_hi_ns_m": i.hi,
+                     "half_width_fraction": i.half_width_fraction, "interval_method": i.method}
+                    for i in outcome.intervals],
+    }
+
+
+def write_summary(outcome, path: str | Path) -> Path:
+    """Write :func:`summary_record` as JSON."""
+    import json
+
+    text = json.dumps(summary_record(outcome), indent=1)
+    return write_atomic(path, lambda tmp: Path(tmp).write_text(text + "\n"))

@@ -11,7 +11,8 @@ The loop never rewrites a row. A row it adds carries
     the round that added it (0 for the grid);
 ``action``
     ``"new"`` (a new case), ``"extend"`` (more cells or cycles on an existing case: the row
-    supersedes the case's earlier row) or ``"verify"``;
+    supersedes the case's earlier row), ``"verify"`` (a verifying point's first run) or
+    ``"reverify"`` (another run of a verifying point that failed, pooled with the first);
 ``planned_cpu_s``
     the engine CPU the cost model planned for it, s (0 for the grid: the loop's budget counts
     only what the loop spends).
@@ -20,8 +21,8 @@ A case is identified by its key (:func:`case_key`: f, G and r rounded). The tabl
 (:func:`fit_table`) is the latest row of every key among the rows of earlier rounds, verifying
 rows left out: they stay out of sample, so that a verification is never a comparison of the
 surrogate with its own data. Because the rows of round N are decided from the rows of rounds
-< N only, a loop restarted from the table it wrote decides round N again exactly as before and
-finds the rows it already has.
+< N (and from round N's own first verifying runs, themselves decided so), a loop restarted from
+the table it wrote decides round N again exactly as before and finds the rows it already has.
 """
 
 from __future__ import annotations
