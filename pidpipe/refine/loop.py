@@ -111,11 +111,12 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
         ``status`` is ``ok`` and treats their SEMs as their noise. It may refuse points outside
         its domain (:class:`~pidpipe.errors.DomainError`).
     measure : callable
-        ``measure(cases, more) -> rows``: runs the new cases (``Request``s) and extends the
+        ``measure(cases, more) -> rows``: runs the new cases (each a
+        :class:`~pidpipe.refine.candidates.Request`) and extends the
         existing ones (``more``, each with the row it extends as ``base`` and the effort factor)
         and returns one row per request, in order (f, G, r, C_eq, SEM, status, anything else).
     verify : callable
-        ``verify(points) -> rows``: runs verifying cases (``Request``s), one row per point with
+        ``verify(points) -> rows``: runs verifying cases (requests), one row per point with
         its DEM C_eq and SEM.
     cost : callable
         ``cost(request) -> planned engine CPU, s``.
