@@ -22,7 +22,8 @@ in units of each design's target variance: gain = sum over the open designs it s
 which the design's interval meets the criterion. The candidate with the largest gain per
 planned CPU second is taken (ties: the smaller key, then ``new`` before ``extend``); its
 observation is then added to the table as a fantasy (the predicted mean with the expected SEM,
-or the extended row with its SEM / sqrt(k)) and the surrogate refitted, so that the next pick
+or the extended row with its SEM / sqrt(k); at a point the surrogate refuses, the prediction at
+the nearest point of its domain) and the surrogate refitted, so that the next pick
 sees the variance the first one removes (the "kriging believer" batch). A candidate with no
 gain is never taken.
 
@@ -199,10 +200,14 @@ def _with_fantasy(table: pd.DataFrame, request: Request, model,
         where = out["case_key"] == request.key
         out.loc[where, SEM_COLUMN] = out.loc[where, SEM_COLUMN] / math.sqrt(request.factor)
         return out
-    mean, _ = model.predict_with_uncertainty(np.array([request.freq_hz]),
-                                             np.array([request.accel_g]),
-                                             np.array([request.fill_pct]))
-    value = float(np.asarray(mean, dtype=float)[0])
+    point = [request.freq_hz, request.accel_g, request.fill_pct]
+    mean, _ = predict_or_nan(model, *point)
+    if not np.isfinite(mean[0]):        # refused: the prediction at the nearest point it takes
+        domain = getattr(model, "domain", {})
+        point = [float(np.clip(v, *domain[k])) if k in domain else v
+                 for k, v in zip(("freq_hz", "accel_g", "fill_pct"), point)]
+        mean, _ = predict_or_nan(model, *point)
+    value = float(mean[0]) if np.isfinite(mean[0]) else float(np.nanmedian(table[VALUE_COLUMN]))
     row = {"freq_hz": request.freq_hz, "accel_g": request.accel_g, "fill_pct": request.fill_pct,
            VALUE_COLUMN: value, SEM_COLUMN: max(relative_sem * abs(value), 1e-300),
            "status": "ok", "case_key": case_key(request.freq_hz, request.accel_g, request.fill_pct)}

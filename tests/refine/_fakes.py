@@ -14,6 +14,7 @@ from sklearn.gaussian_process.kernels import RBF, ConstantKernel
 from pidpipe.design.band import BandRule
 from pidpipe.design.designs import Search
 from pidpipe.design.optimisation import Budget, Environment
+from pidpipe.errors import DomainError
 
 #: Fill (%) at which every design's total C_eq peaks: T ~ C / r ~ exp(-((r - R_OPT) / 30)^2).
 R_OPT = 45.0
@@ -57,12 +58,13 @@ class FakeEngine:
     the case, its effort and its run (so a repeated request repeats its answer); CPU =
     CPU_PER_EFFORT_S * effort added. Records every request it runs."""
 
-    def __init__(self, fail_after: int | None = None):
+    def __init__(self, fail_after: int | None = None, truth=None):
         self.requests: list = []
         self.fail_after = fail_after
+        self.truth = true_ceq if truth is None else truth
 
     def _row(self, key: str, f, g, r, effort: float, run: int) -> dict:
-        truth = float(true_ceq(f, g, r))
+        truth = float(self.truth(f, g, r))
         sem = PILOT_RELATIVE_SEM * truth / np.sqrt(effort)
         rng = np.random.default_rng(zlib.crc32(f"{key}|{effort:g}|{run}".encode()))
         return {"freq_hz": f, "accel_g": g, "fill_pct": r, "ceq_coupon_ns_m": truth + sem * rng.standard_normal(),
@@ -131,3 +133,15 @@ class GPSurrogate:
         f, g, r = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (f, g, r)))
         x = np.column_stack([f.ravel(), g.ravel(), r.ravel()])
         return (self._gp.predict(self._scaled(x)) * self._scale + self._mean).reshape(f.shape)
+
+
+class RefusingGP(GPSurrogate):
+    """The GP refusing points outside the bounding box of its rows, as pidpipe's surrogates do."""
+
+    def predict_with_uncertainty(self, f, g, r):
+        for name, values in (("freq_hz", f), ("accel_g", g), ("fill_pct", r)):
+            lo, hi = self.domain[name]
+            values = np.asarray(values, dtype=float)
+            if np.any((values < lo - 1e-9) | (values > hi + 1e-9)):
+                raise DomainError(f"{name} outside the surrogate's domain [{lo:g}, {hi:g}]")
+        return super().predict_with_uncertainty(f, g, r)

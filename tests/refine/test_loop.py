@@ -140,3 +140,30 @@ def test_the_same_inputs_choose_the_same_cases():
     chosen = [t[t["refine_round"] > 0][["case_key", "action", "reason"]] for t in tables]
     assert len(chosen[0]) > 0
     assert chosen[0].reset_index(drop=True).equals(chosen[1].reset_index(drop=True))
+
+
+def test_a_design_whose_whole_sphere_fill_leaves_the_domain_gets_a_case_there_and_verifies():
+    """The default campaign's case: 21 spheres at 100 %, the design at the lowest grid fill
+    25 %, which a cell holds as 5 spheres, 23.81 %, below the surrogate's fill domain."""
+    from pidpipe.design.optimisation import Budget
+    from pidpipe.loop.verify import poured_fill
+
+    from ._fakes import RefusingGP
+
+    def falling(f, g, r):                       # T ~ C / r falls with r: the design sits at 25 %
+        return 0.6 * np.asarray(r, dtype=float) ** 0.5 * (500.0 / np.asarray(f)) ** 0.5 * (
+            np.asarray(g) / 3.0) ** 0.4
+
+    budget = Budget(n_spheres=2000, full_cell_spheres=21, n_cells_coupon=441, n_cells_panel=1000)
+    engine = FakeEngine(truth=falling)
+    outcome = refine(engine.grid(), RefusingGP, engine.measure, engine.verify, engine.cost,
+                     ENVIRONMENTS[:1], budget, SEARCH, SETTINGS, FLAG_Z)
+    table = outcome.table
+    below = table[(table["fill_pct"] < 25.0) & (table["refine_round"] > 0)]
+    assert set(below["fill_pct"].round(2)) == {23.81}
+    reasons = " ".join(below.loc[below["action"] == "new", "reason"])
+    assert "outside the surrogate's domain" in reasons
+    assert outcome.stopped_by == CRITERION_MET
+    # every design now lies at the domain's new lowest fill, and pours as 5 spheres there
+    assert all(poured_fill(i.fill_pct, 21) == (23.81, 5) for i in outcome.intervals)
+    assert all(z <= FLAG_Z for z in outcome.rounds[-1].worst_z.values())
