@@ -28,7 +28,8 @@ class RefineSettings:
     cases_per_round : int
         Cases (new or extended) chosen per round (>= 1).
     max_rounds : int
-        Rounds at most (>= 1).
+        Rounds at most (>= 1); the last one fits, optimises and verifies, and runs no case of
+        its own.
     """
 
     interval_fraction: float = 0.10

@@ -63,10 +63,11 @@ class Choice:
 
 
 def expected_relative_sem(fitted: pd.DataFrame) -> float:
-    """Median SEM / C_eq of the fitted rows with both finite and C_eq > 0."""
+    """Median SEM / C_eq of the usable rows (status ok) with both finite and C_eq > 0."""
     v = fitted[VALUE_COLUMN].to_numpy(dtype=float)
     s = fitted[SEM_COLUMN].to_numpy(dtype=float)
-    good = np.isfinite(v) & np.isfinite(s) & (v > 0) & (s > 0)
+    usable = (fitted["status"] == "ok").to_numpy() if "status" in fitted else np.ones(v.size, bool)
+    good = usable & np.isfinite(v) & np.isfinite(s) & (v > 0) & (s > 0)
     return float(np.median(s[good] / v[good])) if good.any() else FALLBACK_RELATIVE_SEM
 
 
