@@ -9,7 +9,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "pidpipe"
 
 #: The rooms from the bottom up: each may import itself and the rooms before it.
 ROOMS = ("errors", "files", "physics", "cases", "config", "cell", "measurement", "liggghts",
-         "dem", "design", "figures", "loop", "panel", "studies", "steps", "cli")
+         "dem", "design", "figures", "loop", "panel", "refine", "studies", "steps", "cli")
 
 
 def _imports(path: Path) -> list[str]:

@@ -1,0 +1,76 @@
+"""The design-driven refinement's settings (``refine:``), frozen and checking themselves.
+
+The loop (:mod:`pidpipe.refine.loop`) spends engine CPU where the designs are uncertain and
+stops when every design verifies and its total C_eq has a 95 % interval within
+``interval_fraction`` of its value, or when ``max_cpu_s`` of planned engine CPU is spent, or
+after ``max_rounds`` rounds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from pidpipe.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class RefineSettings:
+    """How the refinement loop runs and when it stops.
+
+    Attributes
+    ----------
+    interval_fraction : float
+        A design's 95 % interval of its total C_eq must lie within +- this fraction of its value
+        (0 < x < 1).
+    max_cpu_s : float
+        Planned engine CPU the loop may spend beyond the grid's pilots, s (> 0).
+    cases_per_round : int
+        Cases (new or extended) chosen per round (>= 1).
+    max_rounds : int
+        Rounds at most (>= 1); the last one fits, optimises and verifies, and runs no case of
+        its own.
+    """
+
+    interval_fraction: float = 0.10
+    max_cpu_s: float = 3600.0
+    cases_per_round: int = 4
+    max_rounds: int = 20
+
+    def __post_init__(self) -> None:
+        problems = self.problems()
+        if problems:
+            raise ConfigError("\n".join(problems))
+
+    def problems(self) -> list[str]:
+        """One line per bad setting (empty when all are good)."""
+        lines = []
+        if not (isinstance(self.interval_fraction, (int, float))
+                and 0.0 < self.interval_fraction < 1.0):
+            lines.append(f"config key refine.interval_fraction = {self.interval_fraction!r} is not "
+                         "allowed: it must be a number with 0 < x < 1 (the 95 % interval's "
+                         "half-width as a fraction of the design's total C_eq)")
+        if not (isinstance(self.max_cpu_s, (int, float)) and math.isfinite(self.max_cpu_s)
+                and self.max_cpu_s > 0):
+            lines.append(f"config key refine.max_cpu_s = {self.max_cpu_s!r} is not allowed: it "
+                         "must be a finite number > 0 (planned engine CPU seconds)")
+        for key, least in (("cases_per_round", 1), ("max_rounds", 1)):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                lines.append(f"config key refine.{key} = {value!r} is not allowed: it must be "
+                             f"a whole number >= {least}")
+        return lines
+
+    @classmethod
+    def from_config(cls, config: dict) -> "RefineSettings":
+        """The settings of a validated config's ``refine`` section."""
+        section = config["refine"]
+        return cls(interval_fraction=float(section["interval_fraction"]),
+                   max_cpu_s=float(section["max_cpu_s"]),
+                   cases_per_round=section["cases_per_round"], max_rounds=section["max_rounds"])
+
+    def as_params(self) -> dict:
+        """The plain dict a rule's ``params`` carries (and :meth:`from_config` reads back)."""
+        return {"refine": {"interval_fraction": self.interval_fraction,
+                           "max_cpu_s": self.max_cpu_s, "cases_per_round": self.cases_per_round,
+                           "max_rounds": self.max_rounds}}

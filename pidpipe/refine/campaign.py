@@ -1,0 +1,52 @@
+"""The loop bound to its files: resume from the table it wrote, write every round as it ends.
+
+:func:`refine_files` is the one function a workflow step calls: it starts from the loop's table
+when there is one (a campaign killed between or within rounds resumes there), else from the
+grid's C_eq table; it saves the table after every change and ``rounds.csv`` after every round
+(:mod:`pidpipe.refine.outputs`), and at the end writes ``summary.json`` (what stopped the loop,
+what is open, each design's interval) and the convergence figure
+(:func:`pidpipe.figures.refine.plot_refine`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+import pandas as pd
+
+from pidpipe.config.refine import RefineSettings
+from pidpipe.design.ceq_table import read_ceq_table
+from pidpipe.design.designs import Search
+from pidpipe.design.optimisation import Budget, Environment
+from pidpipe.figures.refine import plot_refine
+from pidpipe.refine.loop import Outcome, refine
+from pidpipe.refine.outputs import read_table, write_rounds, write_summary, write_table
+
+
+def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, measure: Callable,
+                 verify: Callable, cost: Callable, environments: list[Environment],
+                 budget: Budget, search: Search, settings: RefineSettings,
+                 flag_z: float) -> Outcome:
+    """Run (or resume) the loop and write its files under ``out_dir``.
+
+    Parameters
+    ----------
+    grid_table : path
+        The grid's C_eq table (``results/ceq_table.csv``), read when ``out_dir`` has no table.
+    out_dir : path
+        ``results/refine``: ``ceq_table.csv`` (the loop's table), ``rounds.csv``,
+        ``summary.json``, ``convergence.png`` and ``.pdf``.
+    fit, measure, verify, cost, environments, budget, search, settings, flag_z
+        As :func:`pidpipe.refine.loop.refine`.
+    """
+    out = Path(out_dir)
+    table_path, rounds_path = out / "ceq_table.csv", out / "rounds.csv"
+    table = read_table(table_path) if table_path.is_file() else read_ceq_table(grid_table)
+    outcome = refine(table, fit, measure, verify, cost, environments, budget, search, settings,
+                     flag_z, save=lambda t: write_table(t, table_path),
+                     on_round=lambda record: write_rounds([record], rounds_path))
+    write_table(outcome.table, table_path)
+    write_summary(outcome, out / "summary.json")
+    plot_refine(pd.read_csv(rounds_path), out / "convergence", settings.interval_fraction, flag_z)
+    return outcome

@@ -1,0 +1,215 @@
+"""Choose a round's cases: what most reduces the open designs' uncertainty per CPU second.
+
+First, every verifying point that failed (|z| > ``flag_z``) is run again as a verifying case
+(``reverify``, pooled with its earlier runs) and gets a fitted case at the same point (a new
+case, or an extension when the table has one), reason saying which design and |z|. A point
+the surrogate refused (outside its domain, :mod:`pidpipe.refine.predict`) gets the fitted case
+only, which widens the domain to it.
+
+Then, greedily, up to ``cases_per_round`` fitted cases in all, among the new-case and extension
+candidates of the open designs (:mod:`pidpipe.refine.candidates`). A candidate's gain is the
+reduction of the surrogate's predictive variance of C_eq at its point that one more
+observation there brings, for a Gaussian process with the table's SEMs as its noise (exact
+for the point itself, the Bayesian update of one value by one more measurement of it):
+
+    new case:   sigma^2 - 1 / (1 / sigma^2 + 1 / s_e^2),  s_e the SEM a new case is expected
+                to have: the fitted rows' median relative SEM times the predicted C_eq;
+    extension:  sigma^2 - 1 / (1 / sigma^2 + (k - 1) / SEM^2),  k the effort factor (the
+                extension's runs add k - 1 times the case's precision);
+
+in units of each design's target variance: gain = sum over the open designs it serves of
+(n_c / N)^2 * reduction / tau_d^2, with tau_d = interval_fraction * |T_d| / 1.96 the sigma_T at
+which the design's interval meets the criterion. The candidate with the largest gain per
+planned CPU second is taken (ties: the smaller key, then ``new`` before ``extend``); its
+observation is then added to the table as a fantasy (the predicted mean with the expected SEM,
+or the extended row with its SEM / sqrt(k); at a point the surrogate refuses, the prediction at
+the nearest point of its domain) and the surrogate refitted, so that the next pick
+sees the variance the first one removes (the "kriging believer" batch). A candidate with no
+gain is never taken.
+
+The choice is a function of the fitted table, the designs and the settings only: the same
+inputs choose the same cases in the same order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
+from pidpipe.refine.candidates import EXTEND_FACTOR, Request, extend_candidates, new_case_candidates
+from pidpipe.refine.intervals import DesignInterval
+from pidpipe.refine.predict import predict_or_nan
+from pidpipe.refine.table import case_key
+
+#: Relative SEM a new case is expected to have when the table has none to go by.
+FALLBACK_RELATIVE_SEM = 0.1
+
+#: Significant digits of a score compared between candidates (so that rounding noise cannot
+#: reorder equal scores).
+SCORE_DIGITS = 12
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The requests of a round: fitted cases (``new``, ``extend``) and verifying reruns."""
+
+    cases: tuple[Request, ...]
+    reverify: tuple[Request, ...]
+
+
+def expected_relative_sem(fitted: pd.DataFrame) -> float:
+    """Median SEM / C_eq of the usable rows (status ok) with both finite and C_eq > 0."""
+    v = fitted[VALUE_COLUMN].to_numpy(dtype=float)
+    s = fitted[SEM_COLUMN].to_numpy(dtype=float)
+    usable = (fitted["status"] == "ok").to_numpy() if "status" in fitted else np.ones(v.size, bool)
+    good = usable & np.isfinite(v) & np.isfinite(s) & (v > 0) & (s > 0)
+    return float(np.median(s[good] / v[good])) if good.any() else FALLBACK_RELATIVE_SEM
+
+
+def variance_reduction(std: np.ndarray, added_precision: np.ndarray) -> np.ndarray:
+    """sigma^2 - 1 / (1 / sigma^2 + p): the predictive variance one more measurement of
+    precision p (1 / SEM^2) removes at its own point; shape of ``std``."""
+    var = np.asarray(std, dtype=float) ** 2
+    with np.errstate(divide="ignore"):
+        after = 1.0 / (1.0 / np.maximum(var, 1e-300) + added_precision)
+    return np.where(var > 0, var - after, 0.0)
+
+
+def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
+           intervals: list[DesignInterval], open_designs: set[str], failing: pd.DataFrame,
+           cost: Callable[[Request], float], cases_per_round: int, interval_fraction: float, full_cell_spheres: int) -> Choice:
+    """The round's requests (see the module's text).
+
+    Parameters
+    ----------
+    fitted : pandas.DataFrame
+        The table the round fitted (:func:`pidpipe.refine.table.fit_table`).
+    fit : callable
+        ``fit(table) -> model``, the surrogate factory.
+    model
+        ``fit(fitted)``, already made.
+    results : list of OptimisationResult
+        The round's designs, in the order of ``intervals``.
+    intervals : list of DesignInterval
+    open_designs : set of str
+        ``environment/kind`` of the designs not yet done.
+    failing : pandas.DataFrame
+        Verifying points with a DEM value that do not pass: |z| > flag_z, or no surrogate value
+        there (:func:`pidpipe.refine.verification.compare` rows).
+    cost : callable
+        ``cost(request) -> planned engine CPU, s``.
+    cases_per_round : int
+    interval_fraction : float
+    full_cell_spheres : int
+    """
+    fitted_keys = set(fitted["case_key"])
+    reverify, cases = [], []
+    for key, part in failing.sort_values(["case_key", "design"]).groupby("case_key", sort=True):
+        first = part.iloc[0]
+        where = ", ".join(f"{d} {p}" for d, p in zip(part["design"], part["point"]))
+        z = np.abs(part["z"].to_numpy(dtype=float))
+        reason = (f"verify |z| = {np.nanmax(z):.2f} at {where}" if np.isfinite(z).any()
+                  else f"verify point outside the surrogate's domain at {where}")
+        point = (float(first["freq_hz"]), float(first["accel_g"]), float(first["fill_pct"]))
+        if np.isfinite(z).any():                        # an outside point needs no rerun
+            reverify.append(Request(*point, action="reverify", reason=reason,
+                                    designs=tuple(part["design"]), run=int(first["runs"])))
+        if len(cases) < cases_per_round:
+            if key in fitted_keys:
+                row = fitted[fitted["case_key"] == key].iloc[-1]
+                cases.append(Request(*point, action="extend", reason=reason, factor=EXTEND_FACTOR,
+                                     base=row.to_dict(), designs=tuple(part["design"])))
+            else:
+                cases.append(Request(*point, action="new", reason=reason,
+                                     designs=tuple(part["design"])))
+    by_name = {f"{i.environment}/{i.kind}": i for i in intervals}
+    open_results = [r for r in results if f"{r.environment.name}/{r.kind}" in open_designs]
+    taken = {c.key for c in cases}
+    candidates = [c for c in (new_case_candidates(open_results, full_cell_spheres, fitted_keys)
+                              + extend_candidates(fitted, open_results, full_cell_spheres))
+                  if c.key not in taken]
+    relative_sem = expected_relative_sem(fitted)
+    table = fitted
+    for case in cases:                                   # the verify-driven ones as fantasies
+        table = _with_fantasy(table, case, model, relative_sem)
+    if cases and candidates:
+        model = fit(table)
+    while len(cases) < cases_per_round and candidates:
+        gains = _gains(candidates, model, by_name, open_designs, relative_sem, interval_fraction)
+        costs = np.array([float(cost(c)) for c in candidates])
+        scores = np.where(gains > 0, gains / np.maximum(costs, 1e-300), -np.inf)
+        order = sorted(range(len(candidates)),
+                       key=lambda i: (-_rounded(scores[i]), candidates[i].key,
+                                      candidates[i].action))
+        best = order[0]
+        if not np.isfinite(scores[best]):
+            break
+        pick = replace(candidates[best], reason=(
+            f"{candidates[best].action}: removes {gains[best]:.3g} target variances of "
+            f"{', '.join(sorted(set(candidates[best].designs) & open_designs))} for "
+            f"{costs[best]:.3g} planned CPU-s"))
+        cases.append(pick)
+        candidates = [c for c in candidates if c.key != pick.key]
+        if len(cases) < cases_per_round and candidates:
+            table = _with_fantasy(table, pick, model, relative_sem)
+            model = fit(table)
+    return Choice(tuple(cases), tuple(reverify))
+
+
+def _rounded(score: float) -> float:
+    if not math.isfinite(score) or score == 0:
+        return score
+    return round(score, SCORE_DIGITS - 1 - int(math.floor(math.log10(abs(score)))))
+
+
+def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[str],
+           relative_sem: float, interval_fraction: float) -> np.ndarray:
+    """Each candidate's gain in target variances of the open designs it serves; shape (n,)."""
+    f = np.array([c.freq_hz for c in candidates])
+    g = np.array([c.accel_g for c in candidates])
+    r = np.array([c.fill_pct for c in candidates])
+    mean, std = predict_or_nan(model, f, g, r)
+    precision = np.empty(len(candidates))
+    for i, c in enumerate(candidates):
+        if c.action == "extend":
+            sem = float(c.base[SEM_COLUMN])
+            precision[i] = (c.factor - 1.0) / sem ** 2
+        else:
+            sem = max(relative_sem * abs(mean[i]), 1e-300)
+            precision[i] = 1.0 / sem ** 2
+    reduction = np.nan_to_num(variance_reduction(std, precision), nan=0.0)
+    gains = np.zeros(len(candidates))
+    for i, c in enumerate(candidates):
+        for name in set(c.designs) & open_designs:
+            interval = by_name[name]
+            tau = interval.target_std_ns_m(interval_fraction)
+            if tau > 0:
+                gains[i] += interval.per_cell ** 2 * reduction[i] / tau ** 2
+    return gains
+
+
+def _with_fantasy(table: pd.DataFrame, request: Request, model,
+                  relative_sem: float) -> pd.DataFrame:
+    """The table with the request's expected observation (see the module's text)."""
+    if request.action == "extend":
+        out = table.copy()
+        where = out["case_key"] == request.key
+        out.loc[where, SEM_COLUMN] = out.loc[where, SEM_COLUMN] / math.sqrt(request.factor)
+        return out
+    point = [request.freq_hz, request.accel_g, request.fill_pct]
+    mean, _ = predict_or_nan(model, *point)
+    if not np.isfinite(mean[0]):        # refused: the prediction at the nearest point it takes
+        domain = getattr(model, "domain", {})
+        point = [float(np.clip(v, *domain[k])) if k in domain else v
+                 for k, v in zip(("freq_hz", "accel_g", "fill_pct"), point)]
+        mean, _ = predict_or_nan(model, *point)
+    value = float(mean[0]) if np.isfinite(mean[0]) else float(np.nanmedian(table[VALUE_COLUMN]))
+    row = {"freq_hz": request.freq_hz, "accel_g": request.accel_g, "fill_pct": request.fill_pct,
+           VALUE_COLUMN: value, SEM_COLUMN: max(relative_sem * abs(value), 1e-300),
+           "status": "ok", "case_key": case_key(request.freq_hz, request.accel_g, request.fill_pct)}
+    return pd.concat([table, pd.DataFrame([row])], ignore_index=True, sort=False)

@@ -1,0 +1,85 @@
+"""Verifying runs pooled and compared out of sample; the table a round fits."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pidpipe.errors import DomainError
+from pidpipe.refine.table import case_key, fit_table, start_table, verify_rows
+from pidpipe.refine.verification import compare, pooled
+from tests._surrogates import FakeSurrogate, constant
+
+
+def _rows(*rows):
+    return pd.DataFrame([{"case_key": k, "ceq_coupon_ns_m": v, "ceq_coupon_sem_ns_m": s}
+                         for k, v, s in rows])
+
+
+def test_verifying_runs_of_a_point_are_pooled_by_inverse_variance():
+    table = pooled(_rows(("a", 10.0, 1.0), ("a", 13.0, 2.0), ("b", 5.0, 0.5)))
+    a = table.set_index("case_key").loc["a"]
+    assert a["dem_ns_m"] == pytest.approx((10.0 / 1 + 13.0 / 4) / (1 + 1 / 4))
+    assert a["dem_sem_ns_m"] == pytest.approx(1 / np.sqrt(1 + 1 / 4))
+    assert a["runs"] == 2
+
+
+class Refusing(FakeSurrogate):
+    """Refuses fills below 25 %."""
+
+    def predict_with_uncertainty(self, f, g, r):
+        if np.any(np.asarray(r) < 25.0):
+            raise DomainError("fill below the domain")
+        return super().predict_with_uncertainty(f, g, r)
+
+
+def test_z_combines_the_dem_sem_and_the_surrogate_std_and_a_refused_point_fails():
+    points = pd.DataFrame([
+        {"design": "e/peak", "point": "centre", "freq_hz": 100.0, "accel_g": 2.0, "fill_pct": 50.0,
+         "case_key": "in"},
+        {"design": "e/peak", "point": "f_lo_G_lo", "freq_hz": 100.0, "accel_g": 2.0,
+         "fill_pct": 23.8, "case_key": "out"},
+        {"design": "e/peak", "point": "f_hi_G_hi", "freq_hz": 100.0, "accel_g": 2.0,
+         "fill_pct": 50.0, "case_key": "not_run"},
+    ])
+    result = compare(points, _rows(("in", 13.0, 3.0), ("out", 10.0, 1.0)),
+                     Refusing(constant(9.0), constant(4.0)), flag_z=2.0)
+    z = result.set_index("case_key")["z"]
+    assert z["in"] == pytest.approx((13.0 - 9.0) / 5.0)
+    assert np.isnan(z["out"]) and np.isnan(z["not_run"])
+    assert result["passes"].tolist() == [True, False, False]
+
+
+def _table():
+    grid = pd.DataFrame({"freq_hz": [100.0, 200.0], "accel_g": [1.0, 1.0], "fill_pct": [50.0, 50.0],
+                         "ceq_coupon_ns_m": [1.0, 2.0], "ceq_coupon_sem_ns_m": [0.1, 0.2]})
+    table = start_table(grid)
+    added = pd.DataFrame([
+        {"freq_hz": 100.0, "accel_g": 1.0, "fill_pct": 50.0, "ceq_coupon_ns_m": 1.1,
+         "ceq_coupon_sem_ns_m": 0.05, "status": "ok", "source": "refine round 1",
+         "refine_round": 1, "action": "extend"},
+        {"freq_hz": 300.0, "accel_g": 1.0, "fill_pct": 50.0, "ceq_coupon_ns_m": 3.0,
+         "ceq_coupon_sem_ns_m": 0.3, "status": "ok", "source": "verify", "refine_round": 1,
+         "action": "verify"},
+        {"freq_hz": 300.0, "accel_g": 1.0, "fill_pct": 50.0, "ceq_coupon_ns_m": 3.1,
+         "ceq_coupon_sem_ns_m": 0.3, "status": "ok", "source": "verify", "refine_round": 1,
+         "action": "reverify"},
+        {"freq_hz": 400.0, "accel_g": 1.0, "fill_pct": 50.0, "ceq_coupon_ns_m": 4.0,
+         "ceq_coupon_sem_ns_m": 0.4, "status": "ok", "source": "refine round 2",
+         "refine_round": 2, "action": "new"},
+    ])
+    added["case_key"] = [case_key(f, g, r) for f, g, r in
+                         added[["freq_hz", "accel_g", "fill_pct"]].to_numpy()]
+    return pd.concat([table, added], ignore_index=True)
+
+
+def test_a_round_fits_the_latest_row_of_each_case_of_earlier_rounds_and_no_verifying_row():
+    table = _table()
+    assert fit_table(table, 1)["ceq_coupon_ns_m"].tolist() == [1.0, 2.0]
+    assert fit_table(table, 2)["ceq_coupon_ns_m"].tolist() == [1.1, 2.0]      # extended
+    assert fit_table(table, 3)["ceq_coupon_ns_m"].tolist() == [1.1, 2.0, 4.0]
+
+
+def test_a_round_compares_its_own_first_verifying_runs_and_earlier_reruns():
+    table = _table()
+    assert verify_rows(table, 1)["action"].tolist() == ["verify"]
+    assert verify_rows(table, 2)["action"].tolist() == ["verify", "reverify"]
