@@ -455,7 +455,9 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
         raise TableError(f"C_eq table {source}: no column {value_column} to fit")
     if rows == "policy":
         if sem_column not in table.columns:
-            raise TableError(f"C_eq table {source}: the fit policy needs the SEM column {sem_column}")
+            raise TableError(f"C_eq table {source}: surrogate method {method} fits each case with "
+                             f"its SEM, and the table has no column {sem_column}; for a table "
+                             f"without SEMs set surrogate.method to rbf_thin_plate or tensor_spline")
         used, excluded = split_for_fit(table, value_column, sem_column)
     else:
         used, excluded = split_usable(table)

@@ -57,9 +57,16 @@ def test_designs_of_an_external_table_are_printed_for_a_panel_larger_than_the_co
 
 
 def test_a_table_without_sems_gets_designs_and_says_why_it_has_no_intervals(tmp_path, capsys):
+    """An interpolant fits a table without SEMs (designs, no intervals); the default GP, which
+    fits each case with its SEM, refuses it in one line that names the way out."""
     table = write_table(tmp_path / "no_sem.csv", sem=False)
     config = write_config(tmp_path / "config.yaml", optimisation={"starts": 4},
                           environments=[{"name": "e", "freq_hz": [250, 300], "accel_g": [5, 6]}])
+    assert main(["optimise", "--table", str(table), "--config", str(config)]) == EXIT_USER_ERROR
+    refused = capsys.readouterr().err
+    assert "has no column ceq_coupon_sem_ns_m" in refused and "rbf_thin_plate" in refused
+    write_config(tmp_path / "config.yaml", optimisation={"starts": 4}, surrogate={"method": "rbf_thin_plate"},
+                 environments=[{"name": "e", "freq_hz": [250, 300], "accel_g": [5, 6]}])
     assert main(["optimise", "--table", str(table), "--config", str(config)]) == 0
     printed = capsys.readouterr().out
     assert "note: the table has no ceq_coupon_sem_ns_m" in printed and "[" not in printed.split("\n")[2]

@@ -217,7 +217,7 @@ def test_splines_have_no_uncertainty_and_gp_needs_sems():
     table = noisy_table(0)
     with pytest.raises(TableError, match="no uncertainty of its own"):
         fit_surrogate(table, method="rbf_thin_plate", allow_holes=True).predict_with_uncertainty(300, 5, 50)
-    with pytest.raises(TableError, match="needs the SEM column ceq_coupon_sem_ns_m"):
+    with pytest.raises(TableError, match="has no column ceq_coupon_sem_ns_m; for a table without SEMs"):
         fit_surrogate(table.drop(columns=[SEM]), method="gp")
     with pytest.raises(ValueError, match="level"):
         fit_surrogate(table, method="gp").predict_interval(300, 5, 50, level=1.5)
