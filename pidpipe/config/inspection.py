@@ -20,7 +20,7 @@ class MotionSampling:
         Windows a cycle is split into (about: a window is a whole number of samples).
     sample_every_steps : int
         The window means of the forces and the power sample every this many steps (evaluating
-        them every step tripled LIGGGHTS' cost of 7 cells: ``benchmarks/bench_inspection.py``).
+        them every step tripled LIGGGHTS' cost of 7 cells: ``benchmarks/experiments/bench_inspection.py``).
     """
 
     windows_per_cycle: int

@@ -583,7 +583,7 @@ def _viblin_unit_z(step, omega, dt):
 
     Walls at the exact z_w(t_n) = W (cos(omega t_n) - 1) with contacts that see v_w(t_n) made the
     contacts integrate a move (dt/2) v_w off the walls' own, and the DEM dissipated 0.17-0.25 %
-    less than LIGGGHTS at 1 g, 750-1000 Hz (README, "Why the DEM dissipated less at 1 g").
+    less than LIGGGHTS at 1 g, 750-1000 Hz (docs/explanation/validation.md, "Why the DEM once dissipated less at 1 g").
     """
     theta = omega * dt
     half = 0.5 * theta

@@ -69,7 +69,7 @@ def test_shake_deck_of_two_cells_golden(tmp_path):
 
 
 def test_shake_deck_writes_the_subdivided_mesh_only_when_asked(tmp_path):
-    """mesh_subdivisions (benchmarks/bench_solver_difference.py) changes the wall mesh and
+    """mesh_subdivisions (benchmarks/experiments/bench_solver_difference.py) changes the wall mesh and
     nothing else; the default is the campaign's mesh of 20 triangles per cell."""
     import meshio
 
