@@ -306,19 +306,3 @@ def run_harmonics(plan: dict, workdir: Path, case: CaseSpec, transient: int, blo
                             block_cycles, summary["ceq_cell_ns_m"], summary["ceq_cell_sem_ns_m"],
                             series.energy_j)
 
-
-def write_record(record: dict, path: str | Path) -> Path:
-    """Write a case record as JSON, atomically and flushed to disk: a reader never sees half a
-    file, and an interrupted write leaves no temporary file behind."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-    try:
-        with open(tmp, "w", encoding="utf-8") as handle:
-            handle.write(json.dumps(record, indent=1, allow_nan=True))
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path

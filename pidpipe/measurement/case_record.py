@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from pidpipe.errors import ParseError
+from pidpipe.files import write_atomic
 
 RECORD_VERSION = 4
 """3: energy_j includes the elastic energy held in the contacts (mechanical_j and elastic_j
@@ -394,17 +395,8 @@ class CaseRecord:
         return cls.from_json(text, path)
 
     def write(self, path: str | os.PathLike) -> Path:
-        """Write the record as JSON, atomically and flushed to disk: a reader never sees half a
-        file, and an interrupted write leaves no temporary file behind."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.part")
-        try:
-            with open(tmp, "w", encoding="utf-8") as handle:
-                handle.write(self.to_json())
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.replace(tmp, path)
-        finally:
-            tmp.unlink(missing_ok=True)
-        return path
+        """Write the record as JSON, atomically and flushed to disk
+        (:func:`pidpipe.files.write_atomic`): a reader never sees half a file, and an
+        interrupted write leaves no temporary file behind."""
+        text = self.to_json()
+        return write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
