@@ -187,16 +187,8 @@ def case_record(settings: ShakeSettings, case: CaseSpec, packings: list[Packing]
              + steady.flags + (["ledger_mismatch"] if mismatch > BALANCE_TOLERANCE else [])
              + harmonics["flags"])
     measured = slice(transient, None)
-    return CaseRecord(
-        solver=SOLVER_NAME,
-        case_id=case.case_id,
-        freq_hz=case.freq_hz,
-        accel_g=case.accel_g,
-        fill_pct=case.fill_pct,
-        replicate=case.replicate,
-        n_spheres=packings[0].n_spheres,
-        status="flagged" if flags else "ok",
-        flags=flags,
+    return CaseRecord.of_run(
+        SOLVER_NAME, case, packings[0].n_spheres, flags,
         **summary,
         **steady.as_record(),
         **inspection,

@@ -224,16 +224,8 @@ def run_case(settings: ShakeSettings, case: CaseSpec, packings: Packing | Sequen
              + timestep_flags(engine.timestep_warnings) + steady.flags
              + (["ledger_mismatch"] if ledger_mismatch > LEDGER_TOLERANCE else [])
              + harmonics["flags"])
-    return CaseRecord(
-        solver="liggghts",
-        case_id=case.case_id,
-        freq_hz=case.freq_hz,
-        accel_g=case.accel_g,
-        fill_pct=case.fill_pct,
-        replicate=case.replicate,
-        n_spheres=packings[0].n_spheres,
-        status="flagged" if flags else "ok",
-        flags=flags,
+    return CaseRecord.of_run(
+        "liggghts", case, packings[0].n_spheres, flags,
         **summary,
         **steady.as_record(),
         **inspection,

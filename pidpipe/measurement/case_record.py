@@ -307,6 +307,19 @@ class CaseRecord:
         value = self.ceq_cell_ns_m
         return self.ceq_cell_sem_ns_m / value if value and math.isfinite(value) else NAN
 
+    @classmethod
+    def of_run(cls, solver: str, case, n_spheres: int, flags: list[str], **fields) -> "CaseRecord":
+        """The record of one engine run of ``case`` (a :class:`pidpipe.cases.CaseSpec`): its id
+        and numbers, ``status`` flagged when any of ``flags`` is set, and the run's ``fields``.
+
+        Both engines build their records here (:func:`pidpipe.liggghts.shake.run_case`,
+        :func:`pidpipe.dem.case.case_record`), so the case's part is written once.
+        """
+        return cls(solver=solver, case_id=case.case_id, freq_hz=case.freq_hz,
+                   accel_g=case.accel_g, fill_pct=case.fill_pct, replicate=case.replicate,
+                   n_spheres=n_spheres, status="flagged" if flags else "ok", flags=flags,
+                   **fields)
+
     def with_(self, **changes) -> "CaseRecord":
         """A copy with ``changes`` (:func:`dataclasses.replace`)."""
         return dataclasses.replace(self, **changes)
