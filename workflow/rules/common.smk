@@ -18,6 +18,7 @@ from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
+from pidpipe.config.panel import panel_params
 
 
 try:
@@ -334,3 +335,8 @@ def get_scene_config():
 def get_host_config():
     """The config values the host check depends on (pidpipe.steps.params.host_params)."""
     return host_params(config)
+
+
+def get_panel_config():
+    """The config values the modal stage depends on (pidpipe.config.panel.panel_params)."""
+    return panel_params(config)

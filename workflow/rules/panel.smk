@@ -4,13 +4,6 @@
 #   snakemake --cores 2 panel
 # It refits the surrogate's bootstrap draws and reruns the coupon designs: about a minute.
 
-from pidpipe.config.panel import panel_params
-
-
-def get_panel_config():
-    """The config values the modal stage depends on (pidpipe.config.panel.panel_params)."""
-    return panel_params(config)
-
 
 rule design_panel:
     input:
@@ -19,9 +12,9 @@ rule design_panel:
         modes="results/panel/modes.csv",
         layout="results/panel/layout.csv",
         designs=report("results/panel/designs.csv", caption="../report/panel.rst",
-                       category="8. Panel"),
+                       category="10. Panel"),
         response="results/panel/response.csv",
-        png=report("results/panel/panel.png", caption="../report/panel.rst", category="8. Panel"),
+        png=report("results/panel/panel.png", caption="../report/panel.rst", category="10. Panel"),
         pdf="results/panel/panel.pdf",
     params:
         config=get_panel_config(),
