@@ -1,4 +1,5 @@
-"""The refinement loop bound to the compiled DEM: ``measure``, ``verify`` and ``cost``.
+"""The refinement loop bound to the compiled DEM: ``measure``, ``verify`` and ``cost``, and the
+step that runs or resumes the loop on a config (:func:`refine_campaign`, ``pidpipe refine``).
 
 :class:`DemEngine` gives :func:`pidpipe.refine.loop.refine` the three callables it needs. Every
 request is run as one case of the campaign is (:func:`pidpipe.steps.cases.measure_case`):
@@ -41,6 +42,7 @@ import logging
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -221,6 +223,51 @@ class DemEngine:
         record.write(path)
         self.runs.append(case.case_id)
         return record
+
+
+def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
+                    on_round: Callable | None = None):
+    """Run or resume the refinement loop of a validated config on the compiled DEM.
+
+    The surrogate is the GP (:func:`pidpipe.design.surrogate.fit_surrogate` with
+    ``method="gp"``, its default fit policy, holes allowed); the designs, their search, the
+    verify threshold and the loop's settings are the config's; the DEM's files go to
+    ``out_dir/work``.
+
+    Parameters
+    ----------
+    config : dict
+        A validated config (:func:`pidpipe.config.load_config`); its ``engine`` is taken as
+        ``dem``.
+    grid_table, out_dir : path
+        As :func:`pidpipe.refine.campaign.refine_files`.
+    on_round : callable, optional
+        ``on_round(record)`` after each round.
+
+    Returns
+    -------
+    (Outcome, DemEngine)
+        The loop's outcome, and the engine (its ``runs``: the cases it shook in this call).
+    """
+    from pidpipe.config.refine import RefineSettings
+    from pidpipe.config.sections import Settings
+    from pidpipe.design.surrogate import fit_surrogate
+    from pidpipe.refine.campaign import refine_files
+    from pidpipe.steps.design import search_settings
+
+    settings, refine = Settings.from_config(config), RefineSettings.from_config(config)
+    if not settings.environments:
+        raise PidpipeError("no environments to design for (config key environments)")
+    engine = DemEngine.from_config(config, Path(out_dir) / "work")
+
+    def fit(table: pd.DataFrame):
+        return fit_surrogate(table, method="gp", allow_holes=True, source=str(grid_table))
+
+    outcome = refine_files(grid_table, out_dir, fit, engine.measure, engine.verify, engine.cost,
+                           list(settings.environments), settings.budget,
+                           search_settings(settings.optimisation.as_params()), refine,
+                           settings.verify.flag_z, on_round=on_round)
+    return outcome, engine
 
 
 def pool_rows(base: dict, new: dict) -> dict:
