@@ -385,6 +385,10 @@ def refine_command(args: argparse.Namespace) -> int:
     print(f"stopped: {outcome.stopped_by} after {len(outcome.rounds)} round(s) in this run; "
           f"the DEM ran {len(engine.runs)} case(s) in it; planned DEM CPU of the loop "
           f"{outcome.table['planned_cpu_s'].sum():.1f} s of {refine.max_cpu_s:g} s")
+    spent = engine.measured
+    print(f"measured in this run: DEM shaking {spent['shake_cpu_s']:.1f} CPU-s, pours "
+          f"{spent['pour_cpu_s']:.1f} CPU-s ({spent['pour_wall_s']:.1f} s wall; the plan charges "
+          "every case its packings' pours, shared ones too)")
     for line in outcome.open:
         print(f"  open: {line}")
     print(f"wrote {args.output_dir}/ceq_table.csv, rounds.csv, summary.json, convergence.png")
