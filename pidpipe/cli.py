@@ -113,6 +113,8 @@ def _parser() -> argparse.ArgumentParser:
                         help="config file (default: config.yaml)")
     refine.add_argument("--output-dir", type=Path, default=Path("results/refine"),
                         help="folder of the loop's outputs (default: results/refine)")
+    refine.add_argument("--cores", type=int, default=1,
+                        help="cases of a round run this many at a time (default: 1)")
     return parser
 
 
@@ -379,9 +381,12 @@ def refine_command(args: argparse.Namespace) -> int:
           f"CPU-s, {refine.cases_per_round} case(s) per round, at most {refine.max_rounds} "
           f"rounds; each design within +-{100 * refine.interval_fraction:g} % and "
           f"|z| <= {settings.verify.flag_z:g}", flush=True)
+    if args.cores < 1:
+        raise PidpipeError(f"--cores {args.cores} is not allowed: it must be >= 1")
     outcome, engine = refine_campaign(config, args.table, args.output_dir,
                                       on_round=lambda record: print(format_round(record),
-                                                                    flush=True))
+                                                                    flush=True),
+                                      cores=args.cores)
     print(f"stopped: {outcome.stopped_by} after {len(outcome.rounds)} round(s) in this run; "
           f"the DEM ran {len(engine.runs)} case(s) in it; planned DEM CPU of the loop "
           f"{outcome.table['planned_cpu_s'].sum():.1f} s of {refine.max_cpu_s:g} s")

@@ -38,16 +38,18 @@ a case's planned CPU; :attr:`DemEngine.measured` keeps what was spent.
 
 Every record is written under ``work_dir/cases/<case id>.json``; a request whose record is
 there (made with the same plan) is read, not run again, so that a loop killed inside a round's
-``measure`` resumes without rerunning the cases it finished. Requests run one after another in
-this process (the loop's ``cases_per_round`` are not yet spread over ``--cores``).
+``measure`` resumes without rerunning the cases it finished. The requests of one call run up
+to ``cores`` at a time, each in a worker process (``pidpipe refine --cores``).
 """
 
 from __future__ import annotations
 
 import logging
 import math
+import multiprocessing
 import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
@@ -106,6 +108,9 @@ class DemEngine:
     work_dir : path
         ``results/refine/work``: packings in ``packings/``, case folders and records in
         ``cases/``.
+    cores : int
+        Requests of one call run up to this many at a time, each in a worker process (cases of
+        one fill share their packings through the pool's locks); 1: one after another here.
 
     Attributes
     ----------
@@ -117,13 +122,16 @@ class DemEngine:
         processes', e.g. LIGGGHTS'), s.
     """
 
-    def __init__(self, pour: PourSettings, shake: ShakeSettings, work_dir: str | Path):
+    def __init__(self, pour: PourSettings, shake: ShakeSettings, work_dir: str | Path,
+                 cores: int = 1):
         from pidpipe.measurement.cost_model import load_cost_model
 
         if shake.engine != "dem":
             raise PidpipeError(f"the refinement's engine binding runs the compiled DEM; the "
                                f"config's engine is {shake.engine!r} (set engine: dem)")
-        self.pour, self.work_dir = pour, Path(work_dir)
+        if isinstance(cores, bool) or not isinstance(cores, int) or cores < 1:
+            raise PidpipeError(f"cores {cores!r} is not allowed: it must be a whole number >= 1")
+        self.pour, self.work_dir, self.cores = pour, Path(work_dir), cores
         self.shake = replace(shake, sampling=replace(shake.sampling, target_relative_sem=None))
         self.run_model = load_cost_model("dem")
         self.pour_model = load_cost_model(pour.pouring.engine)
@@ -136,10 +144,11 @@ class DemEngine:
         self.measured = {"shake_cpu_s": 0.0, "pour_cpu_s": 0.0, "pour_wall_s": 0.0}
 
     @classmethod
-    def from_config(cls, config: dict, work_dir: str | Path) -> "DemEngine":
+    def from_config(cls, config: dict, work_dir: str | Path, cores: int = 1) -> "DemEngine":
         """The engine of a validated config (its ``engine`` set to ``dem``)."""
         config = {**config, "engine": "dem"}
-        return cls(PourSettings.from_config(config), ShakeSettings.from_config(config), work_dir)
+        return cls(PourSettings.from_config(config), ShakeSettings.from_config(config), work_dir,
+                   cores)
 
     # -- plans and their cost ------------------------------------------------------------------
 
@@ -191,27 +200,35 @@ class DemEngine:
 
         An extension's row is its runs' row pooled with the row it extends (:func:`pool_rows`).
         """
-        rows = [self._row(request) for request in cases]
-        for request in more:
-            rows.append(pool_rows(request.base, self._row(request)))
+        cases, more = list(cases), list(more)
+        records = self._records([self.plan(request) for request in cases + more])
+        rows = [_row(record) for record in records[:len(cases)]]
+        rows += [pool_rows(request.base, _row(record))
+                 for request, record in zip(more, records[len(cases):])]
         return pd.DataFrame(rows)
 
     def verify(self, points) -> pd.DataFrame:
         """``verify(points)``: one row per verifying request."""
-        return pd.DataFrame([self._row(request) for request in points])
+        records = self._records([self.plan(request) for request in points])
+        return pd.DataFrame([_row(record) for record in records])
 
-    def _row(self, request: Request) -> dict:
-        """The table row of the request's record (run now, or read from ``work_dir``)."""
-        from pidpipe.design.records import records_to_table
+    def _records(self, plans: list[Plan]) -> list:
+        """The plans' records, in order: up to ``cores`` at a time in worker processes."""
+        if self.cores > 1 and len(plans) > 1:
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(min(self.cores, len(plans)), mp_context=context) as pool:
+                done = list(pool.map(self._record, plans))
+        else:
+            done = [self._record(plan) for plan in plans]
+        for record, spent in done:
+            if spent is not None:
+                self.runs.append(record.case_id)
+                for key, value in spent.items():
+                    self.measured[key] += value
+        return [record for record, _ in done]
 
-        record = self._record(self.plan(request))
-        row = records_to_table([record]).iloc[0].to_dict()
-        row["cells"] = len(record.cells or ()) or 1
-        row["engine_cpu_s"] = _record_cpu_s(record)
-        return row
-
-    def _record(self, plan: Plan):
-        """The plan's case record: read when ``work_dir`` has it for this plan, else run."""
+    def _record(self, plan: Plan) -> tuple:
+        """The plan's case record, and what making it spent (None when ``work_dir`` had it)."""
         from pidpipe.cell.packing import check_packing
         from pidpipe.measurement.case_record import CaseRecord
         from pidpipe.steps.cases import measure_case, pool_packings
@@ -221,7 +238,7 @@ class DemEngine:
         if path.is_file():
             record = CaseRecord.read(path)
             if _made_by(record, plan):
-                return record
+                return record, None
         sampling = replace(self.shake.sampling, cells_per_run=plan.cells,
                            max_cells_per_case=max(plan.cells, self.shake.sampling.max_cells_per_case),
                            measured_cycles=plan.measured_cycles)
@@ -230,21 +247,31 @@ class DemEngine:
         packings = pool_packings(self.pour, case.fill_pct, list(plan.packings),
                                  self.work_dir / "packings")
         after = os.times()
-        self.measured["pour_wall_s"] += time.perf_counter() - wall
-        self.measured["pour_cpu_s"] += sum(after[:4]) - sum(before[:4])
+        spent = {"pour_wall_s": time.perf_counter() - wall,
+                 "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
         for packing in packings:
             check_packing(packing, case.case_id)
         logger.info("refine: shaking %s: %d cell(s) of %d spheres x %d measured cycles (DEM)",
                     case.case_id, plan.cells, plan.n_spheres, plan.measured_cycles)
         record = measure_case(settings, case, packings, self.work_dir / "cases" / case.case_id)
         record.write(path)
-        self.runs.append(case.case_id)
-        self.measured["shake_cpu_s"] += _record_cpu_s(record)
-        return record
+        spent["shake_cpu_s"] = _record_cpu_s(record)
+        return record, spent
+
+
+def _row(record) -> dict:
+    """The table row of a record (:func:`pidpipe.design.records.records_to_table`), with the
+    cells it measured (``cells``) and its measured DEM CPU (``engine_cpu_s``, s)."""
+    from pidpipe.design.records import records_to_table
+
+    row = records_to_table([record]).iloc[0].to_dict()
+    row["cells"] = len(record.cells or ()) or 1
+    row["engine_cpu_s"] = _record_cpu_s(record)
+    return row
 
 
 def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
-                    on_round: Callable | None = None):
+                    on_round: Callable | None = None, cores: int = 1):
     """Run or resume the refinement loop of a validated config on the compiled DEM.
 
     The surrogate is the GP (:func:`pidpipe.design.surrogate.fit_surrogate` with
@@ -261,6 +288,8 @@ def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
         As :func:`pidpipe.refine.campaign.refine_files`.
     on_round : callable, optional
         ``on_round(record)`` after each round.
+    cores : int
+        A round's cases run up to this many at a time (:class:`DemEngine`).
 
     Returns
     -------
@@ -276,7 +305,7 @@ def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
     settings, refine = Settings.from_config(config), RefineSettings.from_config(config)
     if not settings.environments:
         raise PidpipeError("no environments to design for (config key environments)")
-    engine = DemEngine.from_config(config, Path(out_dir) / "work")
+    engine = DemEngine.from_config(config, Path(out_dir) / "work", cores)
 
     def fit(table: pd.DataFrame):
         return fit_surrogate(table, method="gp", allow_holes=True, source=str(grid_table))

@@ -121,3 +121,17 @@ def test_pidpipe_refine_adds_rounds_stops_on_the_budget_and_resumes(problem, tmp
     printed = capsys.readouterr().out
     assert (out / "ceq_table.csv").read_text() == before
     assert f"stopped: {BUDGET_SPENT}" in printed and "the DEM ran 0 case(s)" in printed
+
+
+def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(problem, tmp_path):
+    config_path, _, _ = problem
+    config = load_config(config_path)
+    points = [Request(750.0, 7.5, 25.0, "verify"), Request(750.0, 7.5, 50.0, "verify"),
+              Request(600.0, 6.0, 25.0, "verify")]
+    serial = DemEngine.from_config(config, tmp_path / "serial")
+    parallel = DemEngine.from_config(config, tmp_path / "parallel", cores=2)
+    one, two = serial.verify(points), parallel.verify(points)
+    assert sorted(parallel.runs) == sorted(serial.runs) and len(parallel.runs) == 3
+    assert parallel.measured["shake_cpu_s"] > 0
+    for column in ("case_id", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "status", "n_spheres"):
+        assert list(two[column]) == list(one[column])
