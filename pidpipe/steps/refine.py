@@ -16,12 +16,15 @@ What each request runs (:meth:`DemEngine.plan`)
         target's steps could not be planned before the case runs, and the loop's budget counts
         planned CPU.
     ``extend``
-        A further replicate of the case, (factor - 1) x the base row's effort (its cells x
-        measured cycles), as that many cells more at the configured measured cycles (at most
-        ``fidelity.max_cells_per_case``), on packings no campaign case shakes (replicate
+        A further replicate of the case with (factor - 1) x the base row's cells, each over the
+        base row's measured cycles (those its allocation reached), so that the pooled row has
+        factor x the base's effort in the same proportion of cells to cycles, and its SEM is
+        about the base's / sqrt(factor), as the loop's choice expects
+        (:mod:`pidpipe.refine.choice`); on packings no campaign case shakes (replicate
         100 + q of the pool, :func:`pidpipe.steps.cases.extra_packing_index`, q the base row's
-        replicate count). Its row is pooled with the base row (:func:`pool_rows`) and
-        supersedes it.
+        replicate count). ``fidelity.max_cells_per_case`` does not cap it: the loop's budget
+        and the cost of the cells (the choice weighs gain per planned CPU second) do. Its row
+        is pooled with the base row (:func:`pool_rows`) and supersedes it.
     ``verify`` / ``reverify``
         The point's pilot on packings of their own (replicate 200 + run), so that a verifying
         run is never a rerun of a fitted case at the same point.
@@ -154,7 +157,7 @@ class DemEngine:
 
     def plan(self, request: Request) -> Plan:
         """What the DEM runs for ``request`` (see the module's text)."""
-        from pidpipe.steps.cases import extra_packing_index
+        from pidpipe.steps.cases import EXTRA_PACKINGS_PER_REPLICATE, extra_packing_index
 
         sampling = self.shake.sampling
         spheres = self.pour.fill.spheres(request.fill_pct)
@@ -165,9 +168,9 @@ class DemEngine:
         if request.action == "extend":
             base = request.base
             q = max(1, _integer(base.get("n_replicates"), 1))
-            effort = _cells_of(base, k0) * _integer(base.get("measured_cycles"), cycles)
-            cells = int(math.ceil((request.factor - 1.0) * effort / cycles - 1e-9))
-            cells = min(max(cells, 1), sampling.max_cells_per_case)
+            cycles = _integer(base.get("measured_cycles"), cycles)
+            cells = int(math.ceil((request.factor - 1.0) * _cells_of(base, k0) - 1e-9))
+            cells = min(max(cells, 1), EXTRA_PACKINGS_PER_REPLICATE)
             replicate = EXTEND_REPLICATES_FROM + q
             return Plan(CaseSpec(*point, replicate),
                         tuple(extra_packing_index(replicate, j) for j in range(cells)),
