@@ -7,6 +7,7 @@ stops it after a round or two, and a rerun that must resume without shaking anyt
 
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 
@@ -122,6 +123,14 @@ def test_pidpipe_refine_adds_rounds_stops_on_the_budget_and_resumes(problem, tmp
     assert (out / "ceq_table.csv").read_text() == before
     assert f"stopped: {BUDGET_SPENT}" in printed and "the DEM ran 0 case(s)" in printed
 
+    # killed inside the last round's measure, after its cases had run: the table lacks their
+    # rows, the work folder has their records; the rerun reads them and shakes nothing
+    last = int(table["refine_round"].max())
+    table[table["refine_round"] < last].to_csv(out / "ceq_table.csv", index=False)
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert pd.read_csv(out / "ceq_table.csv").equals(pd.read_csv(io.StringIO(before)))
+
 
 def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(problem, tmp_path):
     config_path, _, _ = problem
@@ -135,3 +144,18 @@ def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(pro
     assert parallel.measured["shake_cpu_s"] > 0
     for column in ("case_id", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "status", "n_spheres"):
         assert list(two[column]) == list(one[column])
+
+
+def test_an_extension_of_a_case_its_allocation_took_past_the_pilot_keeps_its_cycles(problem):
+    _, _, engine = problem
+    # the DEM campaign's f1000Hz_G1_r90pct: the allocation took it to 20 cells x 400 cycles
+    base = {"freq_hz": 1000.0, "accel_g": 1.0, "fill_pct": 50.0, "status": "ok",
+            "regime_cells": "no_lift_off:20", "cells_per_run": 20, "measured_cycles": 400,
+            "n_replicates": 1, "ceq_coupon_ns_m": 1.0, "ceq_coupon_sem_ns_m": 0.04}
+    request = Request(1000.0, 1.0, 50.0, "extend", factor=4.0, base=base)
+    plan = engine.plan(request)
+    assert (plan.cells, plan.measured_cycles) == (60, 400)
+    pilot = engine.plan(Request(1000.0, 1.0, 50.0))
+    assert (pilot.cells, pilot.measured_cycles) == (1, 10)
+    assert set(plan.packings).isdisjoint(pilot.packings)
+    assert engine.cost(request) > 60 * engine.cost(Request(1000.0, 1.0, 50.0))
