@@ -100,7 +100,7 @@ def _parser() -> argparse.ArgumentParser:
         "refine", help="run or resume the design-driven refinement loop on the compiled DEM",
         description="From a C_eq table, in rounds: fit the GP surrogate, optimise the designs, "
                     "verify them with the compiled DEM, and run the DEM cases that most reduce "
-                    "the designs' uncertainty, until every design verifies with its 95 %% "
+                    "the designs' uncertainty, until every design verifies with its 95 % "
                     "interval within refine.interval_fraction, or refine.max_cpu_s of planned "
                     "DEM CPU is spent, or refine.max_rounds have run (pidpipe.refine). Resumes "
                     "from the table it wrote in --output-dir. Prints each round and what "
