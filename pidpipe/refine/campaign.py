@@ -27,7 +27,7 @@ from pidpipe.refine.outputs import read_table, write_rounds, write_summary, writ
 def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, measure: Callable,
                  verify: Callable, cost: Callable, environments: list[Environment],
                  budget: Budget, search: Search, settings: RefineSettings,
-                 flag_z: float) -> Outcome:
+                 flag_z: float, on_round: Callable | None = None) -> Outcome:
     """Run (or resume) the loop and write its files under ``out_dir``.
 
     Parameters
@@ -39,14 +39,23 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
         ``summary.json``, ``convergence.png`` and ``.pdf``.
     fit, measure, verify, cost, environments, budget, search, settings, flag_z
         As :func:`pidpipe.refine.loop.refine`.
+    on_round : callable, optional
+        ``on_round(record)`` after each round, once ``rounds.csv`` has it (to print it).
     """
     out = Path(out_dir)
     table_path, rounds_path = out / "ceq_table.csv", out / "rounds.csv"
     table = read_table(table_path) if table_path.is_file() else read_ceq_table(grid_table)
     outcome = refine(table, fit, measure, verify, cost, environments, budget, search, settings,
                      flag_z, save=lambda t: write_table(t, table_path),
-                     on_round=lambda record: write_rounds([record], rounds_path))
+                     on_round=lambda record: _round_done(record, rounds_path, on_round))
     write_table(outcome.table, table_path)
     write_summary(outcome, out / "summary.json")
     plot_refine(pd.read_csv(rounds_path), out / "convergence", settings.interval_fraction, flag_z)
     return outcome
+
+
+def _round_done(record, rounds_path: Path, on_round: Callable | None) -> None:
+    """Write the round into rounds.csv, then hand it to ``on_round``."""
+    write_rounds([record], rounds_path)
+    if on_round is not None:
+        on_round(record)

@@ -107,9 +107,11 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
         ``fit(table) -> model``; the model has ``domain``, ``predict(f, G, r)`` and
         ``predict_with_uncertainty(f, G, r) -> (mean, std)`` (coupon C_eq, N*s/m; arrays of
         the inputs' shape; std the latent function's, without the noise), optionally
-        ``predict_joint(f, G, r) -> (mean, covariance)``; it fits only the rows whose
-        ``status`` is ``ok`` and treats their SEMs as their noise. It may refuse points outside
-        its domain (:class:`~pidpipe.errors.DomainError`).
+        ``predict_joint(f, G, r) -> (mean, covariance)``; it fits the rows the project's fit
+        policy keeps (:mod:`pidpipe.design.fit_policy`: status ``ok``, and rows flagged for
+        precision only, each with its SEM as its noise), as
+        :func:`pidpipe.design.surrogate.fit_surrogate` with ``method="gp"`` does. It may refuse
+        points outside its domain (:class:`~pidpipe.errors.DomainError`).
     measure : callable
         ``measure(cases, more) -> rows``: runs the new cases (each a
         :class:`~pidpipe.refine.candidates.Request`) and extends the
