@@ -16,6 +16,7 @@ from pidpipe.steps.design import fit_m_eff_surrogate
 from pidpipe.steps.params import (M_EFF_FIGURES, M_EFF_SURROGATE, m_eff_figure_paths,
                                   m_eff_surrogate_paths)
 from pidpipe.config.sections import Optimisation
+from pidpipe.config import REPO_ROOT as REPO
 
 SPHERE_KG = 9.65e-6          # an acrylic sphere of radius 1.25 mm
 FULL_CELL = 44
@@ -116,3 +117,46 @@ def test_m_eff_maps_are_drawn_with_their_uncertainty(fitted, tmp_path):
                     *map(str, paths))
     for path in paths:
         assert path.stat().st_size > 10_000 and path.with_suffix(".pdf").is_file()
+
+
+def test_compare_designs_writes_the_m_eff_columns(fitted, tmp_path):
+    """The verify step reads both surrogates and writes DEM m_eff against the surrogate's."""
+    from pidpipe.config import load_config
+    from pidpipe.config.settings import VerifySettings
+    from pidpipe.design.surrogate import fit_surrogate, save_surrogate
+    from pidpipe.loop.verify import plan_points
+    from pidpipe.steps.params import verify_case_config
+    from pidpipe.steps.verify import compare_designs, configured_fidelity
+    from tests.loop.test_verify import design, record
+
+    folder, table = fitted
+    config = load_config(REPO / ".test" / "config.yaml")
+    case_config = verify_case_config(config)
+    fidelity, target = configured_fidelity(case_config)
+    ceq = fit_surrogate(table, method="gp")
+    save_surrogate(ceq, tmp_path / "surrogate.json")
+    points = plan_points([design("A", "peak", 50.0, freq=(100.0, 500.0), accel=(1.0, 2.0))],
+                         FULL_CELL)
+    points.to_csv(tmp_path / "points.csv", index=False)
+    m_eff = load_surrogate(folder / "surrogate_m_eff.json")
+    paths = []
+    for case_id in dict.fromkeys(points["case_id"]):
+        row = points[points["case_id"] == case_id].iloc[0]
+        truth = float(m_eff.predict(row["freq_hz"], row["accel_g"], row["fill_pct"]))
+        rec = record(case_id, 2.0, 0.1).with_(
+            fidelity={**fidelity, "transient_cycles": 30, "steps_per_cycle": 2000},
+            harmonics={"m_eff_cell_kg": truth, "m_eff_cell_sem_kg": 0.02 * truth + 1e-9})
+        if target is not None:
+            rec = rec.with_(target={"relative_sem": target})
+        paths.append(tmp_path / f"{case_id}.json")
+        rec.write(paths[-1])
+    out = tmp_path / "verify.csv"
+    compare_designs(str(tmp_path / "points.csv"), [str(p) for p in paths],
+                    str(tmp_path / "surrogate.json"),
+                    VerifySettings.from_config(config).as_params(), case_config, str(out),
+                    str(tmp_path / "verify.png"),
+                    m_eff_surrogate_path=str(folder / "surrogate_m_eff.json"))
+    written = pd.read_csv(out)
+    assert (written["surrogate_u_method"] == "gp_predictive").all()
+    assert written["m_eff_surrogate_u_kg"].gt(0).all()
+    assert written["z_m_eff"].abs().max() < 0.5      # the records hold what the surrogate says
