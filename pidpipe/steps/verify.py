@@ -164,7 +164,7 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
                     "uncertainties at %d of %d design point(s) with an m_eff", settings.flag_z,
                     len(m_eff_off), int(table["z_m_eff"].notna().sum()))
         for line in m_eff_off:
-            logger.warning("m_eff surrogate off: %s", line)
+            logger.warning("m_eff off: %s", line)
     not_ok = table[table["dem_status"] != "ok"].drop_duplicates("case_id")
     for _, row in not_ok.iterrows():
         logger.warning("verifying case %s: DEM status %s%s", row["case_id"], row["dem_status"],
