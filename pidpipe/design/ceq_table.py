@@ -31,6 +31,12 @@ VALUE_COLUMN = "ceq_coupon_ns_m"
 #: Its standard error, N*s/m (optional).
 SEM_COLUMN = "ceq_coupon_sem_ns_m"
 
+#: The mean cell's effective mass, kg (the spheres' force in phase with the wall's acceleration,
+#: :mod:`pidpipe.measurement.harmonics`), and its standard error: what the m_eff surrogate fits.
+#: It may be about zero or slightly negative (a bed in free flight), so it has no range check.
+M_EFF_COLUMN = "m_eff_cell_kg"
+M_EFF_SEM_COLUMN = "m_eff_cell_sem_kg"
+
 #: Low-signal warning: a C_eq whose standard error exceeds this fraction of it is marked
 #: ``uncertain`` in the table's ``signal`` column and drawn as such in the figures.
 UNCERTAIN_RELATIVE_SEM = 0.3
@@ -56,6 +62,13 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
     "seed",
     "cells_per_run",
     "wall_time_s",
+    M_EFF_COLUMN,
+    M_EFF_SEM_COLUMN,
+    "m_eff_ratio",
+    "m_eff_ratio_sem",
+    "bed_mass_kg",
+    "ceq_force_cell_ns_m",
+    "ceq_force_cell_sem_ns_m",
 )
 
 #: Text columns that the campaign writes.

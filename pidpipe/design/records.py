@@ -24,6 +24,15 @@ _MEAN_WITH_SEM = (
     ("ed_cycle_mean_j", "ed_cycle_sem_j"),
 )
 
+#: (value, its SEM): keys of the record's ``harmonics`` (and table columns) averaged over the
+#: replicates that carry harmonics (:mod:`pidpipe.measurement.harmonics`): the mean cell's
+#: effective mass (kg), its ratio to the cell's bed mass, and the force-based C_eq (N*s/m).
+_HARMONICS_WITH_SEM = (
+    ("m_eff_cell_kg", "m_eff_cell_sem_kg"),
+    ("m_eff_ratio", "m_eff_ratio_sem"),
+    ("ceq_force_cell_ns_m", "ceq_force_cell_sem_ns_m"),
+)
+
 #: table column -> key of the record's ``fidelity``, for settings the same for every replicate.
 _FIDELITY_COLUMNS = {
     "dt_s": "timestep_s",
@@ -46,6 +55,8 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "n_replicates", "ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_relative_sem",
     "ceq_cell_ns_m", "ceq_cell_sem_ns_m",
     "ed_cycle_mean_j", "ed_cycle_sem_j", "n_cycles",
+    "m_eff_cell_kg", "m_eff_cell_sem_kg", "m_eff_ratio", "m_eff_ratio_sem", "bed_mass_kg",
+    "ceq_force_cell_ns_m", "ceq_force_cell_sem_ns_m",
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
     "pour_engine", "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
@@ -146,6 +157,7 @@ def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) 
     for value_key, sem_key in _MEAN_WITH_SEM:
         row[value_key], row[sem_key] = combine_replicates(
             [_number(getattr(r, value_key)) for r in used], [_number(getattr(r, sem_key)) for r in used])
+    row.update(harmonics_columns(used))
     row["n_cycles"] = int(sum(int(r.n_cycles or 0) for r in used))
     row["regime"], row["regime_cells"] = table_regime(point[1], used)
     row["ceq_relative_sem"], row["signal"] = signal_quality(row["ceq_coupon_ns_m"],
@@ -164,6 +176,32 @@ def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) 
     row["solver_version"] = reference.engine.version
     row["liggghts_version"] = reference.engine.get("liggghts_version")
     return row
+
+
+def harmonics_columns(used: list[CaseRecord]) -> dict:
+    """The first-harmonic columns of a grid point from its averaged replicates.
+
+    Parameters
+    ----------
+    used : list of CaseRecord
+        The replicates whose values the row averages; those without ``harmonics`` are left out.
+
+    Returns
+    -------
+    dict
+        Every column of :data:`_HARMONICS_WITH_SEM` (value and SEM by
+        :func:`combine_replicates`) and ``bed_mass_kg`` (the mean cell's spheres' mass, kg,
+        averaged); NaN for all when no replicate carries harmonics. ``m_eff_ratio`` is each
+        replicate's m_eff over its own bed mass, then averaged.
+    """
+    measured = [r.harmonics for r in used if r.harmonics]
+    columns = {}
+    for value_key, sem_key in _HARMONICS_WITH_SEM:
+        columns[value_key], columns[sem_key] = combine_replicates(
+            [_number(h.get(value_key)) for h in measured], [_number(h.get(sem_key)) for h in measured])
+    columns["bed_mass_kg"] = (float(np.mean([_number(h.get("bed_mass_kg")) for h in measured]))
+                              if measured else math.nan)
+    return columns
 
 
 def table_regime(accel_g: float, used: list[CaseRecord]) -> tuple[str, str]:

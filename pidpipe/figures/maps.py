@@ -12,6 +12,13 @@ surrogates refitted to the bootstrap's redrawn tables (:func:`pidpipe.design.boo
 resampled_surrogates`), as the standard deviation over the draws relative to the surrogate's
 value, in %. A contour drawn where that spread is large is not a measurement. Without draws
 (a table with no SEM) the companion panel says so.
+
+The effective mass has maps of its own beside these (:func:`plot_m_eff_freq_fill`,
+:func:`plot_m_eff_freq_accel`): m_eff / bed mass from the m_eff surrogate (a Gaussian process,
+:func:`pidpipe.steps.design.fit_m_eff_surrogate`), 1 where the bed rides the wall and about 0
+where it flies, on a linear colour scale; under each, the surrogate's own predictive standard
+uncertainty of that ratio (:meth:`~pidpipe.design.surrogate.Surrogate.predict_with_uncertainty`),
+in % of the bed mass (relative to m_eff it would be meaningless where m_eff is about zero).
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib.colors import LogNorm
+from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 
 from pidpipe.design.ceq_table import SEM_COLUMN, UNCERTAIN_RELATIVE_SEM, VALUE_COLUMN
@@ -270,3 +277,171 @@ def _uncertain_rows(rows) -> np.ndarray:
     sem = rows[SEM_COLUMN].to_numpy(dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return (value <= 0.0) | (sem > UNCERTAIN_RELATIVE_SEM * value)
+
+
+# --------------------------------------------------------------------------------------------
+# The effective mass
+
+#: Colour bar label of the m_eff maps.
+M_EFF_RATIO_LABEL = r"$m_\mathrm{eff}$ / bed mass (-)"
+#: Levels of the m_eff uncertainty panels, % of the bed mass; above the last is one colour.
+M_EFF_SD_LEVELS = (0, 1, 2, 3, 5, 7.5, 10, 15, 20, 30, 50)
+
+
+def plot_m_eff_freq_fill(surrogate: Surrogate, bed_mass_kg, accel_levels_g=(1.0, 2.0, 5.0),
+                         stem: str | Path | None = None) -> Figure:
+    """m_eff / bed mass (f, r) maps at fixed base accelerations, each over its uncertainty.
+
+    Parameters
+    ----------
+    surrogate : Surrogate
+        The m_eff surrogate (one cell's m_eff, kg); ``gp`` for the uncertainty panels.
+    bed_mass_kg : callable
+        ``bed_mass_kg(fill_pct) -> kg``, array in, array out of the same shape: one cell's
+        spheres' mass at a fill (:func:`bed_mass_of_fill`).
+    accel_levels_g : sequence of float
+        One column per level, g. The defaults straddle lift-off (1 g) and the 1-5 g transition,
+        where m_eff changes; above it m_eff is about zero everywhere.
+    stem : str or Path, optional
+        If given, save as ``<stem>.png`` and ``<stem>.pdf``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    return _m_eff_figure(surrogate, bed_mass_kg, "accel_g", accel_levels_g,
+                         ("freq_hz", "fill_pct"), stem)
+
+
+def plot_m_eff_freq_accel(surrogate: Surrogate, bed_mass_kg, fill_levels_pct=(25.0, 50.0, 80.0),
+                          stem: str | Path | None = None) -> Figure:
+    """m_eff / bed mass (f, G) maps at fixed fills (the C_eq maps' levels); see
+    :func:`plot_m_eff_freq_fill`."""
+    return _m_eff_figure(surrogate, bed_mass_kg, "fill_pct", fill_levels_pct,
+                         ("freq_hz", "accel_g"), stem)
+
+
+def bed_mass_of_fill(fill_pct, bed_mass_kg):
+    """One cell's bed mass at any fill, from the table's fills: ``(fill_pct, bed_mass_kg)`` ->
+    a callable, linear between the fills (a cell holds round(r N_full / 100) spheres, so this is
+    within half a sphere's mass of the poured bed between grid fills and exact on them).
+
+    Parameters
+    ----------
+    fill_pct, bed_mass_kg : array_like, shape (n,)
+        The table's rows (NaN masses are ignored; repeated fills averaged), % and kg.
+
+    Returns
+    -------
+    callable
+        ``f(fill_pct) -> kg``, array in, array out (held constant beyond the table's fills).
+
+    Raises
+    ------
+    ValueError
+        No finite bed mass.
+    """
+    fill = np.asarray(fill_pct, dtype=float)
+    mass = np.asarray(bed_mass_kg, dtype=float)
+    keep = np.isfinite(fill) & np.isfinite(mass) & (mass > 0)
+    if not np.any(keep):
+        raise ValueError("the table has no bed mass (bed_mass_kg) to divide m_eff by")
+    levels = np.unique(fill[keep])
+    means = np.array([mass[keep][fill[keep] == level].mean() for level in levels])
+    return lambda r: np.interp(np.asarray(r, dtype=float), levels, means)
+
+
+def m_eff_ratio_grid(surrogate: Surrogate, bed_mass_kg, freq_hz: np.ndarray, accel_g: np.ndarray,
+                     fill_pct: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """m_eff / bed mass and its standard uncertainty at the query points (same shape).
+
+    Returns
+    -------
+    ratio : ndarray
+    sd : ndarray or None
+        The GP's predictive standard uncertainty of m_eff (without the cases' excess scatter:
+        the response's own) over the bed mass; None for a surrogate without one.
+    """
+    mass = bed_mass_kg(fill_pct)
+    if surrogate.has_uncertainty:
+        value, sd = surrogate.predict_with_uncertainty(freq_hz, accel_g, fill_pct)
+        return np.asarray(value) / mass, np.asarray(sd) / mass
+    return np.asarray(surrogate.predict(freq_hz, accel_g, fill_pct)) / mass, None
+
+
+def _m_eff_figure(surrogate: Surrogate, bed_mass_kg, fixed: str, levels,
+                  axes_vars: tuple[str, str], stem: str | Path | None) -> Figure:
+    """One column per level of ``fixed``: m_eff / bed mass over its uncertainty."""
+    import matplotlib as mpl
+
+    with mpl.rc_context(RC_PARAMS):
+        fig = Figure(figsize=(4.6 * len(levels) + 1.2, 8.6), layout="constrained")
+        grid = fig.subplots(2, len(levels), sharex="col", sharey=True, squeeze=False)
+        axes, sd_axes = grid[0], grid[1]
+        maps = []
+        for level in levels:
+            slice_map = _slice_grid(surrogate, fixed, level, axes_vars)
+            if slice_map is not None:
+                xx, yy, query = slice_map
+                slice_map = (xx, yy, *m_eff_ratio_grid(surrogate, bed_mass_kg, query["freq_hz"],
+                                                       query["accel_g"], query["fill_pct"]))
+            maps.append(slice_map)
+        drawn = [m[2] for m in maps if m is not None]
+        norm = Normalize(min(0.0, *(float(g.min()) for g in drawn)),
+                         max(1.0, *(float(g.max()) for g in drawn))) if drawn else None
+        image = sd_image = None
+        for ax, sd_ax, level, slice_map in zip(axes, sd_axes, levels, maps):
+            _frame(ax, surrogate, axes_vars)
+            _frame(sd_ax, surrogate, axes_vars)
+            unit = UNITS[fixed]
+            if slice_map is None:
+                lo, hi = surrogate.domain[fixed]
+                for target in (ax, sd_ax):
+                    target.set_title(f"{SYMBOLS[fixed]} = {level:g} {unit}: outside the surrogate "
+                                     f"domain\n[{lo:g}, {hi:g}] {unit}, not drawn", fontsize=9)
+                    _mark_points(target, surrogate, fixed, level, axes_vars)
+                continue
+            xx, yy, ratio, sd = slice_map
+            image = ax.contourf(xx, yy, ratio, levels=np.linspace(norm.vmin, norm.vmax, 13),
+                                norm=norm, cmap="viridis")
+            ax.set_title(f"{SYMBOLS[fixed]} = {level:g} {unit}")
+            _mark_points(ax, surrogate, fixed, level, axes_vars)
+            if sd is None:
+                sd_ax.set_title(f"{SYMBOLS[fixed]} = {level:g} {unit}: uncertainty not drawn",
+                                fontsize=9)
+                sd_ax.text(0.5, 0.5, f"surrogate {surrogate.method} has no predictive "
+                           "uncertainty", transform=sd_ax.transAxes, ha="center", va="center",
+                           color="0.4", wrap=True)
+            else:
+                percent = 100.0 * sd
+                sd_image = sd_ax.contourf(xx, yy, np.clip(percent, 0, M_EFF_SD_LEVELS[-1]),
+                                          levels=M_EFF_SD_LEVELS, cmap="magma_r", extend="max")
+                sd_ax.set_title(f"{SYMBOLS[fixed]} = {level:g} {unit}: predictive std "
+                                f"(median {np.median(percent):.1f} % of the bed)", fontsize=9)
+            _mark_points(sd_ax, surrogate, fixed, level, axes_vars)
+        axes[0].set_ylabel(AXIS_LABELS[axes_vars[1]])
+        sd_axes[0].set_ylabel(AXIS_LABELS[axes_vars[1]])
+        if image is not None:
+            fig.colorbar(image, ax=list(axes), label=M_EFF_RATIO_LABEL)
+        if sd_image is not None:
+            fig.colorbar(sd_image, ax=list(sd_axes),
+                         label=r"standard uncertainty of $m_\mathrm{eff}$ / bed mass (% of the bed)")
+        _figure_legend(fig, axes)
+        fig.suptitle(f"Effective mass, surrogate {surrogate.method} ({surrogate.target} target): "
+                     f"m_eff / bed mass ({SYMBOLS[axes_vars[0]]}, {SYMBOLS[axes_vars[1]]}) at "
+                     f"fixed {SYMBOLS[fixed]}")
+        if stem is not None:
+            save_figure(fig, stem)
+    return fig
+
+
+def _slice_grid(surrogate: Surrogate, fixed: str, level: float, axes_vars: tuple[str, str]):
+    """(x grid, y grid, query dict of the three coordinates) of one slice over the surrogate's
+    domain, or None when the level is outside it."""
+    lo, hi = surrogate.domain[fixed]
+    if not lo <= level <= hi:
+        return None
+    x = np.geomspace(*surrogate.domain[axes_vars[0]], GRID_POINTS)  # x is always frequency
+    y = np.linspace(*surrogate.domain[axes_vars[1]], GRID_POINTS)
+    xx, yy = np.meshgrid(x, y)
+    return xx, yy, {axes_vars[0]: xx, axes_vars[1]: yy, fixed: np.full_like(xx, level)}

@@ -19,7 +19,17 @@ each with the surrogate at its own design's fill.
 
 The surrogate's standard uncertainty (:func:`surrogate_uncertainty`)
 --------------------------------------------------------------------
-u_s = sqrt(u_noise^2 + u_interp^2), N*s/m:
+For a Gaussian-process surrogate (``gp``, :attr:`~pidpipe.design.surrogate.Surrogate.has_uncertainty`)
+u_s is its own predictive standard uncertainty at the point, with the fitted excess scatter
+between cases (``predict_with_uncertainty(..., include_scatter=True)``: what one new case is
+compared with, its own SEM added apart). The GP fits every case with its noise, so that one
+figure holds both the cases' noise carried to the point and the error of interpolating to it,
+larger far from the cases; ``surrogate_u_method`` is ``gp_predictive`` and the two parts below
+are NaN. (Adding bootstrap redraws to it would count the cases' noise twice, and a leave-one-out
+error, itself holding the held-out cases' noise, a third time.)
+
+For the interpolants (no uncertainty of their own; ``surrogate_u_method``
+``bootstrap_and_loo``) u_s = sqrt(u_noise^2 + u_interp^2), N*s/m:
 
 ``u_noise``
     the standard deviation at the point of ``draws`` refits of the surrogate on the C_eq table
@@ -34,16 +44,26 @@ u_s = sqrt(u_noise^2 + u_interp^2), N*s/m:
 
 It includes the table's noise and a global estimate of the interpolation error. It omits how
 the interpolation error varies over the domain (larger far from grid points, smaller near them:
-one RMS is used everywhere), and the DEM's own systematic error (contact model, fidelity
-settings), which the grid and the verifying cases share when they run the same engine at the
-same fidelity; a solver difference enters when ``verify.engine`` is not the campaign's engine
-(each row names its engine). e_loo, measured on DEM data, also holds the held-out points' own
+one RMS is used everywhere). e_loo, measured on DEM data, also holds the held-out points' own
 noise, so u_interp partly counts u_noise again: u_s leans large, and |z| small.
+
+Either way u_s omits the DEM's own systematic error (contact model, fidelity settings), which
+the grid and the verifying cases share when they run the same engine at the same fidelity; a
+solver difference enters when ``verify.engine`` is not the campaign's engine (each row names
+its engine).
 
 The comparison (:func:`compare`)
 --------------------------------
 z_combined = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), for the coupon's C_eq (what the
 surrogate models); ``surrogate_off`` is |z_combined| > ``flag_z``.
+
+The effective mass is compared the same way when there is an m_eff surrogate
+(:func:`m_eff_predictions`, the campaign's GP of one cell's m_eff): the verifying case's m_eff
+of the mean cell ± its SEM (its record's ``harmonics``) against the surrogate's prediction ±
+its predictive standard uncertainty (with the excess scatter), read at the design's fill as
+C_eq is, and z_m_eff = (m_dem - m_s) / sqrt(SEM_dem^2 + u_m^2); ``m_eff_off`` is
+|z_m_eff| > ``flag_z``. Without an m_eff surrogate, or a record without harmonics, those
+columns are NaN.
 """
 
 from __future__ import annotations
@@ -79,10 +99,15 @@ VERIFY_COLUMNS: tuple[str, ...] = POINT_COLUMNS + (
     "transient_cycles", "steps_per_cycle",
     "target_relative_sem", "target_reached", "dem_cpu_time_s",
     "ceq_coupon_dem_ns_m", "ceq_coupon_dem_sem_ns_m",
-    "surrogate_method", "ceq_coupon_surrogate_ns_m", "surrogate_noise_sd_ns_m",
-    "surrogate_interp_sd_ns_m", "surrogate_u_ns_m", "difference_ns_m", "z_combined",
-    "surrogate_off", "note",
+    "surrogate_method", "ceq_coupon_surrogate_ns_m", "surrogate_u_method",
+    "surrogate_noise_sd_ns_m", "surrogate_interp_sd_ns_m", "surrogate_u_ns_m", "difference_ns_m",
+    "z_combined", "surrogate_off",
+    "m_eff_dem_kg", "m_eff_dem_sem_kg", "m_eff_surrogate_kg", "m_eff_surrogate_u_kg",
+    "z_m_eff", "m_eff_off", "note",
 )
+
+#: The m_eff columns of :func:`m_eff_predictions`, kg.
+M_EFF_PREDICTION_COLUMNS: tuple[str, ...] = ("m_eff_surrogate_kg", "m_eff_surrogate_u_kg")
 
 
 def band_points(freq_band: tuple[float, float],
@@ -191,23 +216,28 @@ def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
         With ``freq_hz`` (Hz), ``accel_g`` (g) and ``design_fill_pct`` (%, where the surrogate
         is read), m rows.
     draws, seed : int
-        Refits on the table redrawn within its SEMs, and their seed (0 draws: no noise part).
+        Refits on the table redrawn within its SEMs, and their seed (0 draws: no noise part);
+        unused for a surrogate with its own predictive uncertainty (``gp``).
 
     Returns
     -------
     pandas.DataFrame
-        m rows: ``surrogate_method``, ``ceq_coupon_surrogate_ns_m``,
-        ``surrogate_noise_sd_ns_m``, ``surrogate_interp_sd_ns_m``, ``surrogate_u_ns_m``
+        m rows: ``surrogate_method``, ``ceq_coupon_surrogate_ns_m``, ``surrogate_u_method``
+        (``gp_predictive`` or ``bootstrap_and_loo``), ``surrogate_noise_sd_ns_m``,
+        ``surrogate_interp_sd_ns_m`` (NaN for ``gp_predictive``), ``surrogate_u_ns_m``
         (N*s/m) and ``note`` (what was left out, or where the fill was held to the domain).
     """
+    freq, accel, held, notes = _surrogate_query(surrogate, points)
+    if surrogate.has_uncertainty:
+        value, u = surrogate.predict_with_uncertainty(freq, accel, held, include_scatter=True)
+        nan = np.full(len(points), np.nan)
+        return pd.DataFrame({"surrogate_method": surrogate.method,
+                             "ceq_coupon_surrogate_ns_m": np.asarray(value, dtype=float),
+                             "surrogate_u_method": "gp_predictive",
+                             "surrogate_noise_sd_ns_m": nan, "surrogate_interp_sd_ns_m": nan,
+                             "surrogate_u_ns_m": np.asarray(u, dtype=float), "note": notes})
     from pidpipe.design.bootstrap import has_sem, loo_rel_error, resampled_surrogates
 
-    freq, accel, fill = (points[c].to_numpy(dtype=float)
-                         for c in ("freq_hz", "accel_g", "design_fill_pct"))
-    lo, hi = surrogate.domain["fill_pct"]
-    held = np.clip(fill, lo, hi)
-    notes = [f"surrogate at the fill domain's edge {h:g} % (the design's fill is {r:g} %)"
-             if h != r else "" for r, h in zip(fill, held)]
     prediction = np.asarray(surrogate.predict(freq, accel, held), dtype=float).reshape(-1)
     if draws > 0 and has_sem(surrogate):
         redrawn = np.array([model.predict(freq, accel, held)
@@ -226,8 +256,51 @@ def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
                  for note in notes]
     return pd.DataFrame({"surrogate_method": surrogate.method,
                          "ceq_coupon_surrogate_ns_m": prediction,
+                         "surrogate_u_method": "bootstrap_and_loo",
                          "surrogate_noise_sd_ns_m": noise, "surrogate_interp_sd_ns_m": interp,
                          "surrogate_u_ns_m": total, "note": notes})
+
+
+def m_eff_predictions(m_eff_surrogate, points: pd.DataFrame) -> pd.DataFrame:
+    """The m_eff surrogate's prediction and predictive standard uncertainty at each point.
+
+    Parameters
+    ----------
+    m_eff_surrogate : pidpipe.design.surrogate.Surrogate or None
+        The campaign's surrogate of one cell's m_eff, kg (``results/surrogate_m_eff.json``);
+        None: every value NaN.
+    points : pandas.DataFrame
+        As :func:`surrogate_uncertainty`, m rows; read at ``design_fill_pct`` held to the
+        surrogate's fill domain.
+
+    Returns
+    -------
+    pandas.DataFrame
+        m rows: :data:`M_EFF_PREDICTION_COLUMNS` (kg); the uncertainty is the GP's with the
+        excess scatter (``include_scatter=True``), NaN for a surrogate without one.
+    """
+    nan = np.full(len(points), np.nan)
+    if m_eff_surrogate is None:
+        return pd.DataFrame({"m_eff_surrogate_kg": nan, "m_eff_surrogate_u_kg": nan})
+    freq, accel, held, _ = _surrogate_query(m_eff_surrogate, points)
+    if m_eff_surrogate.has_uncertainty:
+        value, u = m_eff_surrogate.predict_with_uncertainty(freq, accel, held,
+                                                            include_scatter=True)
+    else:
+        value, u = m_eff_surrogate.predict(freq, accel, held), nan
+    return pd.DataFrame({"m_eff_surrogate_kg": np.asarray(value, dtype=float).reshape(-1),
+                         "m_eff_surrogate_u_kg": np.asarray(u, dtype=float).reshape(-1)})
+
+
+def _surrogate_query(surrogate, points: pd.DataFrame):
+    """(f, G, fill held to the surrogate's fill domain, a note per point) of the plan's points."""
+    freq, accel, fill = (points[c].to_numpy(dtype=float)
+                         for c in ("freq_hz", "accel_g", "design_fill_pct"))
+    lo, hi = surrogate.domain["fill_pct"]
+    held = np.clip(fill, lo, hi)
+    notes = [f"surrogate at the fill domain's edge {h:g} % (the design's fill is {r:g} %)"
+             if h != r else "" for r, h in zip(fill, held)]
+    return freq, accel, held, notes
 
 
 def z_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
@@ -249,8 +322,10 @@ def is_off(z: np.ndarray, flag_z: float) -> np.ndarray:
 
 
 def record_columns(record: CaseRecord) -> dict:
-    """The DEM columns of a verifying case's record (failed: NaN values)."""
+    """The DEM columns of a verifying case's record (failed, or m_eff without harmonics: NaN)."""
     nan = math.nan
+    harmonics = {k: (nan if v is None else v) for k, v in (record.harmonics or {}).items()
+                 if k in ("m_eff_cell_kg", "m_eff_cell_sem_kg")}
     target = record.target or {}
     fidelity = record.fidelity
     return {
@@ -266,6 +341,8 @@ def record_columns(record: CaseRecord) -> dict:
         "dem_cpu_time_s": record.cpu_time_s,
         "ceq_coupon_dem_ns_m": float(record.ceq_coupon_ns_m),
         "ceq_coupon_dem_sem_ns_m": float(record.ceq_coupon_sem_ns_m),
+        "m_eff_dem_kg": float(harmonics.get("m_eff_cell_kg", nan)),
+        "m_eff_dem_sem_kg": float(harmonics.get("m_eff_cell_sem_kg", nan)),
     }
 
 
@@ -347,15 +424,16 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
     records : dict of str -> CaseRecord
         The record of every case id of ``points``.
     predictions : pandas.DataFrame
-        :func:`surrogate_uncertainty` at ``points``, m rows in the same order.
+        :func:`surrogate_uncertainty` at ``points``, m rows in the same order, and optionally
+        the m_eff surrogate's (:func:`m_eff_predictions`, columns beside; NaN when absent).
     flag_z : float
-        ``surrogate_off`` when |z_combined| exceeds it.
+        ``surrogate_off`` when |z_combined| exceeds it, ``m_eff_off`` when |z_m_eff| does.
 
     Returns
     -------
     pandas.DataFrame
-        :data:`VERIFY_COLUMNS`, m rows (values in N*s/m; a shared case repeats in each of its
-        designs' rows).
+        :data:`VERIFY_COLUMNS`, m rows (C_eq in N*s/m, m_eff of one cell in kg; a shared case
+        repeats in each of its designs' rows).
 
     Raises
     ------
@@ -377,11 +455,20 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
     table["z_combined"] = z_combined(table["ceq_coupon_dem_ns_m"], table["ceq_coupon_dem_sem_ns_m"],
                                      table["ceq_coupon_surrogate_ns_m"], table["surrogate_u_ns_m"])
     table["surrogate_off"] = is_off(table["z_combined"], flag_z)
+    for column in M_EFF_PREDICTION_COLUMNS:
+        if column not in table.columns:
+            table[column] = math.nan
+    table["z_m_eff"] = z_combined(table["m_eff_dem_kg"], table["m_eff_dem_sem_kg"],
+                                  table["m_eff_surrogate_kg"], table["m_eff_surrogate_u_kg"])
+    table["m_eff_off"] = is_off(table["z_m_eff"], flag_z)
     notes = []
     for _, row in table.iterrows():
         note = row["note"]
         if row["surrogate_off"]:
             note = _join(note, f"surrogate off by {row['z_combined']:+.1f} combined standard "
+                               f"uncertainties (|z| > {flag_z:g})")
+        if row["m_eff_off"]:
+            note = _join(note, f"m_eff surrogate off by {row['z_m_eff']:+.1f} combined standard "
                                f"uncertainties (|z| > {flag_z:g})")
         if row["dem_status"] != "ok":
             note = _join(note, f"DEM case {row['dem_status']}"
@@ -392,12 +479,21 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
 
 
 def off_lines(table: pd.DataFrame) -> list[str]:
-    """One line per row where the surrogate is off (for the rule's log)."""
+    """One line per row where the C_eq surrogate is off (for the rule's log)."""
     return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
             f"{row['ceq_coupon_dem_ns_m']:.4g} +- {row['ceq_coupon_dem_sem_ns_m']:.2g}, surrogate "
             f"{row['ceq_coupon_surrogate_ns_m']:.4g} +- {row['surrogate_u_ns_m']:.2g} N*s/m, "
             f"z = {row['z_combined']:+.2f}"
             for _, row in table[table["surrogate_off"]].iterrows()]
+
+
+def m_eff_off_lines(table: pd.DataFrame) -> list[str]:
+    """One line per row where the m_eff surrogate is off (for the rule's log)."""
+    return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
+            f"m_eff {row['m_eff_dem_kg']:.4g} +- {row['m_eff_dem_sem_kg']:.2g}, surrogate "
+            f"{row['m_eff_surrogate_kg']:.4g} +- {row['m_eff_surrogate_u_kg']:.2g} kg, "
+            f"z = {row['z_m_eff']:+.2f}"
+            for _, row in table[table["m_eff_off"]].iterrows()]
 
 
 def _join(note: str, more: str) -> str:

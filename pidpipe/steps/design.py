@@ -1,4 +1,4 @@
-"""The design stage's steps: fit the surrogate, cross-validate it, optimise every design of every environment.
+"""The design stage's steps: fit the surrogates (C_eq, and the effective mass), cross-validate, optimise every design of every environment.
 
 Here the config's parts become the design's settings objects (:class:`~pidpipe.design.designs.Search`,
 :class:`~pidpipe.design.bootstrap.Bootstrap`, environments); nothing below reads the config.
@@ -37,6 +37,52 @@ def fit_table_surrogate(table_path: str, method: str, surrogate_path: str,
     logger.info("surrogate %s (%s target) on %d rows of %s; %d left out; domain %s", method,
                 surrogate.target, len(surrogate.training), table_path, len(surrogate.excluded),
                 surrogate.domain)
+
+
+def fit_m_eff_surrogate(table_path: str, surrogate_path: str, allow_holes: bool = False) -> None:
+    """Fit the Gaussian process of one cell's effective mass to a C_eq table and save it (JSON).
+
+    The fitted column is ``m_eff_cell_kg`` with its SEM ``m_eff_cell_sem_kg``
+    (:data:`pidpipe.design.ceq_table.M_EFF_COLUMN`), rows by the fit policy
+    (:mod:`pidpipe.design.fit_policy`), on a **linear** target: m_eff runs from the whole bed's
+    mass (resting) to about zero, and slightly below within its noise, when the bed is airborne,
+    where a log target is not defined. Whatever the C_eq surrogate's method (``surrogate.method``),
+    m_eff is always fitted by ``gp``: the damper element and the host check's model (c) draw it
+    within its own predictive uncertainty.
+
+    Parameters
+    ----------
+    table_path : path
+        The campaign's C_eq table (``results/ceq_table.csv``).
+    surrogate_path : path
+        ``results/surrogate_m_eff.json`` (:data:`pidpipe.design.damper.M_EFF_FILE`).
+    allow_holes : bool
+        Bridge grid points without a fitted m_eff (``surrogate.allow_holes``); without it the
+        fit stops and names them.
+
+    Raises
+    ------
+    TableError
+        The table has no m_eff (records made before the harmonics were measured), or a row to
+        fit has no SEM.
+    """
+    from pidpipe.design.ceq_table import M_EFF_COLUMN, M_EFF_SEM_COLUMN, read_ceq_table
+    from pidpipe.design.surrogate import fit_surrogate, save_surrogate
+    from pidpipe.errors import TableError
+
+    table = read_ceq_table(table_path)
+    if M_EFF_COLUMN not in table.columns or not table[M_EFF_COLUMN].notna().any():
+        raise TableError(f"C_eq table {table_path}: no {M_EFF_COLUMN} in any row (its records "
+                         "were made before the effective mass was measured): delete "
+                         "results/cases/ and rerun the campaign to measure it")
+    surrogate = fit_surrogate(table, method="gp", target="linear", source=str(table_path),
+                              allow_holes=allow_holes, value_column=M_EFF_COLUMN,
+                              sem_column=M_EFF_SEM_COLUMN)
+    if surrogate.holes:
+        logger.warning("m_eff surrogate bridges %d grid point(s) without a fitted m_eff "
+                       "(f Hz, G g, r %%): %s", len(surrogate.holes), surrogate.holes)
+    write_atomic(surrogate_path, lambda tmp: save_surrogate(surrogate, tmp))
+    logger.info("m_eff %s", surrogate.describe())
 
 
 def cross_validate_table(table_path: str, cv_path: str) -> None:

@@ -46,6 +46,34 @@ def plot_surrogate_maps(surrogate_path: str, freq_fill_png: str, freq_accel_png:
                 freq_accel_png, len(refits or []))
 
 
+def plot_m_eff_maps(surrogate_path: str, table_path: str, freq_fill_png: str,
+                    freq_accel_png: str) -> None:
+    """The m_eff / bed mass maps, (f, r) and (f, G), of the saved m_eff surrogate over its
+    predictive standard uncertainty, each as PNG and PDF.
+
+    Parameters
+    ----------
+    surrogate_path : path
+        ``results/surrogate_m_eff.json`` (:func:`pidpipe.steps.design.fit_m_eff_surrogate`).
+    table_path : path
+        The C_eq table it was fitted to: each fill's bed mass (``bed_mass_kg``).
+    freq_fill_png, freq_accel_png : path
+        The PNG files; the PDF goes next to each, with the same stem.
+    """
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.surrogate import load_surrogate
+    from pidpipe.figures.maps import bed_mass_of_fill, plot_m_eff_freq_accel, plot_m_eff_freq_fill
+
+    surrogate = load_surrogate(surrogate_path)
+    table = read_ceq_table(table_path)
+    bed_mass = bed_mass_of_fill(table["fill_pct"], table["bed_mass_kg"])
+    plot_m_eff_freq_fill(surrogate, bed_mass, stem=Path(freq_fill_png).with_suffix(""))
+    plot_m_eff_freq_accel(surrogate, bed_mass, stem=Path(freq_accel_png).with_suffix(""))
+    logger.info("m_eff maps: %s, %s (and PDF), %s", freq_fill_png, freq_accel_png,
+                "uncertainty from the surrogate's predictive std" if surrogate.has_uncertainty
+                else f"no uncertainty ({surrogate.method} has none)")
+
+
 def plot_optimisation_convergence(results_json: str, png: str) -> None:
     """Objective against SLSQP iteration of every start, per environment, as PNG and PDF.
 

@@ -81,6 +81,24 @@ def ceq_table_path(optimisation: Optimisation) -> str:
     return optimisation.external_ceq_table or "results/ceq_table.csv"
 
 
+#: The m_eff surrogate (:func:`pidpipe.steps.design.fit_m_eff_surrogate`) and its maps.
+M_EFF_SURROGATE = "results/surrogate_m_eff.json"
+M_EFF_FIGURES: tuple[str, ...] = ("results/figures/m_eff_freq_fill.png",
+                                  "results/figures/m_eff_freq_accel.png")
+
+
+def m_eff_surrogate_paths(optimisation: Optimisation) -> list[str]:
+    """The m_eff surrogate when the fitted table can have m_eff: the campaign's table (every
+    case record measures it); none with ``optimisation.external_ceq_table`` (a published C_eq
+    table has no ``m_eff_cell_kg``; ask for :data:`M_EFF_SURROGATE` by name if one has)."""
+    return [] if optimisation.external_ceq_table else [M_EFF_SURROGATE]
+
+
+def m_eff_figure_paths(optimisation: Optimisation) -> list[str]:
+    """The m_eff maps (PNG) when there is an m_eff surrogate (:func:`m_eff_surrogate_paths`)."""
+    return list(M_EFF_FIGURES) if m_eff_surrogate_paths(optimisation) else []
+
+
 def validation_params(config: dict) -> list[dict]:
     """The cases of ``validate_chosen`` (``validation.cases``) as its params carry them."""
     return Validation.from_config(config).as_params()

@@ -92,8 +92,10 @@ def configured_fidelity(config: dict) -> tuple[dict, float | None]:
 
 
 def compare_designs(points_path: str, record_paths: list[str], surrogate_path: str,
-                    verify: dict, case_config: dict, table_path: str, plot_path: str) -> None:
-    """Compare every verifying case with the surrogate; write results/verify.csv and its figure.
+                    verify: dict, case_config: dict, table_path: str, plot_path: str,
+                    m_eff_surrogate_path: str | None = None) -> None:
+    """Compare every verifying case with the surrogates (C_eq, and m_eff when there is one);
+    write results/verify.csv and its figure.
 
     Parameters
     ----------
@@ -109,6 +111,9 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
         The verifying cases' case-stage config: every record must have been made with it.
     table_path, plot_path : path
         The table (CSV, atomically) and the parity figure (``.png``; a ``.pdf`` next to it).
+    m_eff_surrogate_path : path, optional
+        The campaign's m_eff surrogate (``results/surrogate_m_eff.json``); None (an external C_eq
+        table): the m_eff columns are NaN.
 
     Raises
     ------
@@ -120,7 +125,8 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
     from pidpipe.design.records import read_record
     from pidpipe.design.surrogate import load_surrogate
     from pidpipe.figures.verify import plot_verify
-    from pidpipe.loop.verify import compare, off_lines, stale_records, surrogate_uncertainty
+    from pidpipe.loop.verify import (compare, m_eff_off_lines, m_eff_predictions, off_lines,
+                                     stale_records, surrogate_uncertainty)
 
     settings = VerifySettings.from_config(verify)
     points = read_points(points_path)
@@ -135,18 +141,30 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
     surrogate = load_surrogate(surrogate_path)
     predictions = surrogate_uncertainty(surrogate, points, settings.surrogate_draws,
                                         settings.surrogate_seed)
+    m_eff_surrogate = load_surrogate(m_eff_surrogate_path) if m_eff_surrogate_path else None
+    predictions = pd.concat([predictions, m_eff_predictions(m_eff_surrogate, points)], axis=1)
     table = compare(points, records, predictions, settings.flag_z)
     write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
     plot_verify(table, Path(plot_path).with_suffix(""), flag_z=settings.flag_z)
     off = off_lines(table)
     engines = ", ".join(sorted(set(table["engine"].astype(str))))
     logger.info("verify (%s): %d design point(s), %d distinct case(s), %.0f s CPU; the surrogate "
-                "(%s) is off by more than %g combined standard uncertainties at %d of them",
-                engines, len(table), table["case_id"].nunique(),
+                "(%s, uncertainty %s) is off by more than %g combined standard uncertainties "
+                "at %d of them", engines, len(table), table["case_id"].nunique(),
                 table.drop_duplicates("case_id")["dem_cpu_time_s"].sum(), surrogate.method,
-                settings.flag_z, len(off))
+                table["surrogate_u_method"].iloc[0] if len(table) else "-", settings.flag_z,
+                len(off))
     for line in off:
         logger.warning("surrogate off: %s", line)
+    if m_eff_surrogate is None:
+        logger.info("verify: no m_eff surrogate (an external C_eq table): m_eff not compared")
+    else:
+        m_eff_off = m_eff_off_lines(table)
+        logger.info("verify: the m_eff surrogate is off by more than %g combined standard "
+                    "uncertainties at %d of %d design point(s) with an m_eff", settings.flag_z,
+                    len(m_eff_off), int(table["z_m_eff"].notna().sum()))
+        for line in m_eff_off:
+            logger.warning("m_eff off: %s", line)
     not_ok = table[table["dem_status"] != "ok"].drop_duplicates("case_id")
     for _, row in not_ok.iterrows():
         logger.warning("verifying case %s: DEM status %s%s", row["case_id"], row["dem_status"],

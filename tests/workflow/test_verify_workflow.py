@@ -78,6 +78,24 @@ def test_the_log_and_the_figure_say_what_was_found(verified):
     assert (workdir / "results" / "verify.png").stat().st_size > 10_000
 
 
+def test_the_dem_m_eff_is_compared_with_the_m_eff_surrogate(verified):
+    """Every verifying case's m_eff against the campaign's m_eff GP, z from the table's values;
+    the C_eq interpolant (rbf_thin_plate in .test) keeps its bootstrap and LOO uncertainty."""
+    workdir, _ = verified
+    table = pd.read_csv(workdir / "results" / "verify.csv")
+    assert (table["surrogate_u_method"] == "bootstrap_and_loo").all()
+    for column in ("m_eff_dem_kg", "m_eff_dem_sem_kg", "m_eff_surrogate_kg", "z_m_eff"):
+        assert np.all(np.isfinite(table[column].to_numpy(dtype=float))), column
+    assert np.all(table["m_eff_surrogate_u_kg"] > 0) and np.all(table["m_eff_dem_sem_kg"] > 0)
+    combined = np.hypot(table["m_eff_dem_sem_kg"], table["m_eff_surrogate_u_kg"])
+    np.testing.assert_allclose(table["z_m_eff"],
+                               (table["m_eff_dem_kg"] - table["m_eff_surrogate_kg"]) / combined,
+                               rtol=1e-9)
+    assert list(table["m_eff_off"]) == list(table["z_m_eff"].abs() > 2.0)
+    log = (workdir / "logs" / "verify" / "verify.log").read_text()
+    assert log.count("m_eff off:") == int(table["m_eff_off"].sum())
+
+
 def test_a_new_plan_runs_only_its_new_cases_and_refreshes_the_table_in_the_same_run(verified):
     """Another band replans the cases (the checkpoint reruns): the new corners are shaken, the
     shared ones are not, and verify.csv follows in the same run."""

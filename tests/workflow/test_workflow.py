@@ -104,6 +104,28 @@ def test_surrogate_and_its_cross_validation(campaign_dir):
     assert np.all(np.isfinite(point["rms_rel_error"])) and (point["rms_rel_error"] >= 0).all()
 
 
+def test_the_m_eff_surrogate_and_its_maps(campaign_dir):
+    """Every case measures m_eff; the campaign fits its GP (linear target) and maps it."""
+    from pidpipe.design.surrogate import load_surrogate
+
+    table = read_ceq_table(campaign_dir / "results" / "ceq_table.csv")
+    measured = table[table["status"].isin(["ok", "flagged"])]
+    for column in ("m_eff_cell_kg", "m_eff_cell_sem_kg", "m_eff_ratio", "bed_mass_kg",
+                   "ceq_force_cell_ns_m", "ceq_force_cell_sem_ns_m"):
+        assert np.all(np.isfinite(measured[column].to_numpy(dtype=float))), column
+    np.testing.assert_allclose(measured["m_eff_ratio"],
+                               measured["m_eff_cell_kg"] / measured["bed_mass_kg"], rtol=1e-9)
+    surrogate = load_surrogate(campaign_dir / "results" / "surrogate_m_eff.json")
+    assert (surrogate.method, surrogate.target, surrogate.value_column) == (
+        "gp", "linear", "m_eff_cell_kg")
+    _, sd = surrogate.predict_with_uncertainty(750.0, 7.5, 37.5)
+    assert np.isfinite(sd) and sd > 0
+    for name in ("m_eff_freq_fill", "m_eff_freq_accel"):
+        for suffix in (".png", ".pdf"):
+            assert (campaign_dir / "results" / "figures" / f"{name}{suffix}").stat().st_size > 0
+    assert "m_eff surrogate gp" in (campaign_dir / "logs" / "fit_m_eff_surrogate.log").read_text()
+
+
 def test_optimum_lies_in_the_environment_and_spends_the_budget(campaign_dir, config):
     optimum = pd.read_csv(campaign_dir / "results" / "optimum.csv")
     assert len(config["environments"]) == 1

@@ -9,6 +9,7 @@ from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_
                                   campaign_packing_ids, case_movie_params, case_packing_ids,
                                   ceq_table_path, dem_batch_case_ids, dem_batch_fills,
                                   dem_batch_priority, fill_params, host_params, inspected_cases,
+                                  m_eff_figure_paths, m_eff_surrogate_paths,
                                   map_uncertainty_params, phase_figure_targets,
                                   pour_batch_fill_pattern, pour_batch_replicates, scene_params,
                                   validation_packing_ids, verify_case_config, workflow_settings)
@@ -178,6 +179,16 @@ def get_ceq_table():
     return ceq_table_path(SETTINGS.optimisation)
 
 
+def get_m_eff_surrogate():
+    """The m_eff surrogate, as a list: none with an external C_eq table (it has no m_eff)."""
+    return m_eff_surrogate_paths(SETTINGS.optimisation)
+
+
+def get_m_eff_figures():
+    """The m_eff maps (PNG), when there is an m_eff surrogate."""
+    return m_eff_figure_paths(SETTINGS.optimisation)
+
+
 def get_environments():
     return [environment.as_params() for environment in SETTINGS.environments]
 
@@ -198,8 +209,9 @@ def get_map_uncertainty_params():
 
 def get_final_targets():
     """What `snakemake` builds: the campaign's case records and table (unless an external table is
-    used), then the surrogate, its cross-validation, the optimum and the figures. The records
-    are targets themselves, so that a deleted record is recomputed."""
+    used), then the surrogates (C_eq, and m_eff with the campaign's table), the cross-validation,
+    the optimum and the figures. The records are targets themselves, so that a deleted record is
+    recomputed."""
     targets = [
         "results/surrogate.json",
         "results/surrogate_cv.csv",
@@ -209,6 +221,7 @@ def get_final_targets():
         "results/figures/convergence.png",
         "results/figures/optimum_spread.png",
     ]
+    targets += get_m_eff_surrogate() + get_m_eff_figures()
     if SETTINGS.optimisation.external_ceq_table is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets

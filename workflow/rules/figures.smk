@@ -1,5 +1,5 @@
-# Stage 6: figures of the surrogate (with its bootstrap spread) and of the optimisation (PNG for
-# the report, and PDF).
+# Stage 6: figures of the surrogates (C_eq with its bootstrap spread, m_eff with its predictive
+# uncertainty) and of the optimisation (PNG for the report, and PDF).
 
 
 rule plot_surrogate:
@@ -24,6 +24,31 @@ rule plot_surrogate:
         "logs/plot_surrogate.log",
     script:
         "../scripts/plot_surrogate.py"
+
+
+# The m_eff maps beside the C_eq maps: m_eff / bed mass from the m_eff surrogate over its
+# predictive standard uncertainty; the table gives each fill's bed mass.
+rule plot_m_eff_surrogate:
+    input:
+        surrogate="results/surrogate_m_eff.json",
+        table=get_ceq_table(),
+    output:
+        freq_fill=report(
+            "results/figures/m_eff_freq_fill.png",
+            caption="../report/m_eff_freq_fill.rst",
+            category="2. Surrogate",
+        ),
+        freq_fill_pdf="results/figures/m_eff_freq_fill.pdf",
+        freq_accel=report(
+            "results/figures/m_eff_freq_accel.png",
+            caption="../report/m_eff_freq_accel.rst",
+            category="2. Surrogate",
+        ),
+        freq_accel_pdf="results/figures/m_eff_freq_accel.pdf",
+    log:
+        "logs/plot_m_eff_surrogate.log",
+    script:
+        "../scripts/plot_m_eff_surrogate.py"
 
 
 rule plot_convergence:
@@ -78,6 +103,7 @@ rule plot_phase:
 rule figures:
     input:
         rules.plot_surrogate.output,
+        get_m_eff_figures(),
         rules.plot_convergence.output,
         rules.plot_optimum_spread.output,
         get_phase_figures(),

@@ -1,4 +1,5 @@
-# Stage 4: the surrogate of C_eq(f, G, r) and the cross-validation of every method.
+# Stage 4: the surrogate of C_eq(f, G, r) and the cross-validation of every method, and the
+# Gaussian process of one cell's effective mass m_eff(f, G, r) (pidpipe damper, host model (c)).
 # The table is optimisation.external_ceq_table when set, else the campaign's.
 
 
@@ -14,6 +15,19 @@ rule fit_surrogate:
         "logs/fit_surrogate.log",
     script:
         "../scripts/fit_surrogate.py"
+
+
+rule fit_m_eff_surrogate:
+    input:
+        table=get_ceq_table(),
+    output:
+        surrogate="results/surrogate_m_eff.json",
+    params:
+        allow_holes=get_surrogate_allow_holes(),
+    log:
+        "logs/fit_m_eff_surrogate.log",
+    script:
+        "../scripts/fit_m_eff_surrogate.py"
 
 
 rule cross_validate_surrogate:
@@ -37,3 +51,4 @@ rule surrogate:
     input:
         "results/surrogate.json",
         "results/surrogate_cv.csv",
+        get_m_eff_surrogate(),

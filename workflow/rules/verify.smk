@@ -2,7 +2,8 @@
 #   snakemake --cores 2 verify   every environment's band_mean and peak design shaken by DEM
 #                                (verify.engine) at its fill, at its band's four corners and
 #                                centre, to the campaign's target, and compared with the
-#                                surrogate: results/verify.csv and results/verify.png
+#                                surrogates (C_eq, and m_eff with the campaign's table):
+#                                results/verify.csv and results/verify.png
 # The cases follow from the designs, so plan_verify is a checkpoint; a point two designs share
 # is one case. Their packings are poured and checked apart from the campaign's
 # (results/verify/packings/), with the same seeds and settings. No ancient()/update() here:
@@ -78,6 +79,7 @@ rule compare_designs:
         points="results/verify/points.csv",
         records=get_verify_records,
         surrogate="results/surrogate.json",
+        m_eff_surrogate=get_m_eff_surrogate(),
     output:
         table=report("results/verify.csv", caption="../report/verify.rst",
                      category="6. Verification"),

@@ -14,4 +14,5 @@ run_step(
     meta_path=snakemake.output.meta,
     folder=snakemake.params.folder,
     workers=snakemake.threads,
+    m_eff_surrogate_path=next(iter(snakemake.input.m_eff_surrogate), None),
 )

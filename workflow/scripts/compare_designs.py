@@ -13,4 +13,5 @@ run_step(
     case_config=snakemake.params.case_config,
     table_path=snakemake.output.table,
     plot_path=snakemake.output.plot,
+    m_eff_surrogate_path=next(iter(snakemake.input.m_eff_surrogate), None),
 )
