@@ -18,8 +18,9 @@ The offset is there because C_eq can be ~0 (at low G the spheres hardly lift off
 not exist, and ln of a value at the DEM noise level would put a deep, meaningless dip in the
 surface. Values well above c0 are fitted in log; values below c0 (0.1 % of the largest by
 default, below the DEM's statistical error) are fitted almost linearly. ``target="linear"``
-fits C itself. Either way a prediction is clipped at 0 N*s/m (dissipation is not negative); the
-clip only acts where an interpolant overshoots below zero, i.e. at the scale of c0 for "log".
+fits C itself. Either way a C_eq prediction is clipped at 0 N*s/m (dissipation is not negative;
+an effective mass is not clipped, :attr:`Surrogate.nonnegative`); the clip only acts where an
+interpolant overshoots below zero, i.e. at the scale of c0 for "log".
 
 Methods (:data:`METHODS`)
 -------------------------
@@ -293,7 +294,7 @@ class Surrogate:
         k = float(norm.ppf(0.5 + 0.5 * level))
         lower, upper = (_from_target(mu - k * sd, self.target, self.offset_ns_m),
                         _from_target(mu + k * sd, self.target, self.offset_ns_m))
-        if clip:
+        if clip and self.nonnegative:
             lower, upper = np.maximum(lower, 0.0), np.maximum(upper, 0.0)
         return lower, upper
 
@@ -340,7 +341,14 @@ class Surrogate:
                  fill_pct: np.ndarray) -> np.ndarray:
         """C_eq at m points, shape (m,), N*s/m; no input checks, no domain checks."""
         y = self._model(self._model_input(freq_hz, accel_g, fill_pct))
-        return np.maximum(_from_target(y, self.target, self.offset_ns_m), 0.0)
+        values = _from_target(y, self.target, self.offset_ns_m)
+        return np.maximum(values, 0.0) if self.nonnegative else values
+
+    @property
+    def nonnegative(self) -> bool:
+        """Whether predictions are clipped at 0: a C_eq column's (dissipation is not negative),
+        not an effective mass's (an airborne bed's in-phase force can be slightly negative)."""
+        return self.value_column.startswith("ceq_")
 
     def describe(self) -> str:
         """One paragraph for logs: method, points, domain, left-out rows and holes."""
