@@ -174,12 +174,23 @@ def test_a_ceq_not_resolved_from_zero_is_not_chased():
 
 
 def test_a_pilot_whose_bed_rests_is_not_chased():
-    """Below lift-off the pilot's bed rides the floor (regime no_lift_off): no step is taken,
-    however far the SEM is from the target; the same engine with a bouncing bed is chased."""
+    """Below lift-off the pilot's bed rides the floor (regime no_lift_off at G <= 1): no step is
+    taken, however far the SEM is from the target; the same engine with a bouncing bed is
+    chased, and so is a bed read as resting at 2 g (a full cell at high frequency)."""
     engine = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)   # would need more cells
 
     def resting(packings, cycles, index):
-        return engine.shake(packings, cycles, index).with_(regime="no_lift_off")
+        return engine.shake(packings, cycles, index).with_(regime="no_lift_off", accel_g=0.5)
+
+    other = SyntheticEngine(packing_std=0.25, cycle_noise=0.05)
+
+    def resting_at_2g(packings, cycles, index):
+        return other.shake(packings, cycles, index).with_(regime="no_lift_off", accel_g=2.0)
+
+    above = measure_to_target([FakePacking(400 + j) for j in range(7)], 40, 0.05, LIMITS,
+                              resting_at_2g, packings_from(400), costs(5.0),
+                              lambda records: combine_runs(records, F_HZ, 2.0, 441))
+    assert len(above.target["runs"]) > 1 and above.target["not_chased"] is None
 
     pilot = [FakePacking(300 + j) for j in range(7)]
     record = measure_to_target(pilot, 40, 0.05, LIMITS, resting, packings_from(300), costs(5.0),
