@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from pidpipe.cases import CaseSpec
+from pidpipe.design.fit_policy import classify_row, row_flags
 from pidpipe.design.records import read_record, records_to_table
 from pidpipe.files import write_atomic
 
@@ -41,10 +42,14 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
                 ", ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     bad = table[table["status"] != "ok"]
     for _, row in bad.iterrows():
-        logger.warning("grid point f=%g Hz, G=%g g, r=%g %% (%s) is %s%s; it is not fitted",
+        dropped = classify_row(row["status"], row_flags(row["flags"]), row["ceq_coupon_ns_m"],
+                               row["ceq_coupon_sem_ns_m"])
+        fit = (f"no surrogate fits it ({dropped})" if dropped else
+               "the gp surrogate fits it with its SEM, the interpolants leave it out")
+        logger.warning("grid point f=%g Hz, G=%g g, r=%g %% (%s) is %s%s; %s",
                        row["freq_hz"], row["accel_g"], row["fill_pct"], row["case_id"],
                        row["status"], f": {row['message']}" if row["message"] else
-                       (f" ({row['flags']})" if row["flags"] else ""))
+                       (f" ({row['flags']})" if row["flags"] else ""), fit)
     if not bad.empty:
         logger.warning("to rerun a failed or flagged case, delete its record in results/cases/ "
                        "(and change what made it fail) and run snakemake again")

@@ -192,6 +192,22 @@ def test_collect_table_writes_a_valid_table_and_marks_missing_records(tmp_path):
     assert not list(tmp_path.glob(".*.part"))
 
 
+def test_collect_table_says_which_flagged_points_a_surrogate_fits(tmp_path, caplog):
+    """A point flagged for precision is fitted by the GP with its SEM; one of a failed check by
+    no surrogate (pidpipe.design.fit_policy): the log says which, not 'not fitted' for both."""
+    paths = []
+    for rec in (record(500.0, 5.0, 25.0, status="flagged", flags=["target_not_reached"]),
+                record(500.0, 5.0, 50.0, status="flagged", flags=["sphere_above_lid"])):
+        path = tmp_path / f"{rec.case_id}.json"
+        path.write_text(rec.to_json())
+        paths.append(str(path))
+    with caplog.at_level("WARNING", logger="pidpipe"):
+        collect_table(paths, str(tmp_path / "t.csv"))
+    lines = {line.split(" (")[0]: line for line in caplog.messages if line.startswith("grid point")}
+    assert "the gp surrogate fits it with its SEM" in lines["grid point f=500 Hz, G=5 g, r=25 %"]
+    assert "no surrogate fits it (failed check: sphere_above_lid)" in lines["grid point f=500 Hz, G=5 g, r=50 %"]
+
+
 def test_collect_table_refuses_a_corrupt_record(tmp_path):
     bad = tmp_path / "f500Hz_G5_r25pct_rep0.json"
     bad.write_text("{not json")
