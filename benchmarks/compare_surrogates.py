@@ -158,7 +158,6 @@ def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed
     lo = {c: grid[c].min() for c in COORDINATE_COLUMNS}
     hi = {c: grid[c].max() for c in COORDINATE_COLUMNS}
     rng = np.random.default_rng(seed)
-    g_levels = np.sort(grid["accel_g"].unique())
     keys = [(w, lv) for w in ("grid", "off", "off_low_g", "off_high_g") for lv in (0.6827, 0.95)]
     coverage = {k: [] for k in keys}
     for k in range(n_tables):
@@ -174,10 +173,12 @@ def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed
         surrogate = fit_surrogate(noisy, method="gp")
         off = (np.exp(rng.uniform(np.log(lo["freq_hz"]), np.log(hi["freq_hz"]), n_off)),
                rng.uniform(lo["accel_g"], hi["accel_g"], n_off), rng.uniform(lo["fill_pct"], hi["fill_pct"], n_off))
-        low = off[1] < g_levels[1]  # between the two lowest G levels (1 and 5 g)
+        low = (off[1] >= 1.0) & (off[1] < 5.0)   # the lift-off transition, 1 to 5 g
         where = {"grid": tuple(grid[c].to_numpy() for c in COORDINATE_COLUMNS), "off": off,
-                 "off_low_g": tuple(a[low] for a in off), "off_high_g": tuple(a[~low] for a in off)}
+                 "off_low_g": tuple(a[low] for a in off), "off_high_g": tuple(a[off[1] >= 5.0] for a in off)}
         for name, level in keys:
+            if where[name][0].size == 0:
+                continue
             lower, upper = surrogate.predict_interval(*where[name], level=level)
             exact = synthetic_truth(*where[name], scale)
             coverage[(name, level)].append((int(np.sum((exact >= lower) & (exact <= upper))), exact.size))
