@@ -56,9 +56,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Fit the configured surrogate to a C_eq table (columns freq_hz, accel_g, "
                     "fill_pct, ceq_coupon_ns_m; ceq_coupon_sem_ns_m for intervals) and print the "
                     "peak, band_mean and worst_case design of every environment of the config.")
-    optimise.add_argument("--table", type=Path,
-                          help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
-                               "results/ceq_table.csv")
+    _add_table_argument(optimise)
     optimise.add_argument("--config", type=Path, default=argparse.SUPPRESS,
                           help="config file (default: config.yaml)")
     optimise.add_argument("--draws", type=int,
@@ -89,9 +87,7 @@ def _parser() -> argparse.ArgumentParser:
                     "the source-style and the optimised layouts of the particles, with their added "
                     "loss factors. Writes modes.csv, layout.csv, designs.csv, response.csv and "
                     "panel.png into --output-dir.")
-    panel.add_argument("--table", type=Path,
-                       help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
-                            "results/ceq_table.csv")
+    _add_table_argument(panel)
     panel.add_argument("--config", type=Path, default=argparse.SUPPRESS,
                        help="config file (default: config.yaml)")
     panel.add_argument("--output-dir", type=Path, default=Path("results/panel"),
@@ -248,10 +244,27 @@ def check_config_command(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_table_argument(parser: argparse.ArgumentParser) -> None:
+    """``--table``: the C_eq table a command fits its surrogate to (:func:`_table_surrogate`)."""
+    parser.add_argument("--table", type=Path,
+                        help="C_eq table (CSV); default: optimisation.external_ceq_table, else "
+                             "results/ceq_table.csv")
+
+
+def _table_surrogate(table: Path | None, settings):
+    """The configured surrogate (``surrogate.method``, ``allow_holes``) fitted to ``table``, or to
+    ``optimisation.external_ceq_table``, else ``results/ceq_table.csv``."""
+    from pidpipe.design.ceq_table import read_ceq_table
+    from pidpipe.design.surrogate import fit_surrogate
+
+    path = table or Path(settings.optimisation.external_ceq_table or "results/ceq_table.csv")
+    return fit_surrogate(read_ceq_table(path), method=settings.surrogate.method, source=str(path),
+                         allow_holes=settings.surrogate.allow_holes)
+
+
 def optimise_command(args: argparse.Namespace) -> int:
     """Fit the surrogate to a C_eq table, optimise every design, print them."""
     from pidpipe.config import load_config
-    from pidpipe.design.ceq_table import read_ceq_table
     from pidpipe.design.designs import (
         format_designs,
         write_results_csv,
@@ -259,7 +272,6 @@ def optimise_command(args: argparse.Namespace) -> int:
     )
     from pidpipe.config.sections import Settings
     from pidpipe.design.optimum import optimise_panel
-    from pidpipe.design.surrogate import fit_surrogate
     from pidpipe.files import write_atomic
     from pidpipe.steps.design import search_settings
 
@@ -267,10 +279,7 @@ def optimise_command(args: argparse.Namespace) -> int:
     if not settings.environments:
         raise PidpipeError(f"{args.config}: no environments to optimise for (config key environments)")
     optimisation = settings.optimisation
-    table_path = args.table or Path(optimisation.external_ceq_table or "results/ceq_table.csv")
-    table = read_ceq_table(table_path)
-    surrogate = fit_surrogate(table, method=settings.surrogate.method, source=str(table_path),
-                              allow_holes=settings.surrogate.allow_holes)
+    surrogate = _table_surrogate(args.table, settings)
     bootstrap = optimisation.bootstrap
     if args.draws is not None:
         if args.draws < 0:
@@ -323,19 +332,14 @@ def damper_command(args: argparse.Namespace) -> int:
 def panel_command(args: argparse.Namespace) -> int:
     """Fit the surrogate to a C_eq table and run the modal stage (pidpipe.panel)."""
     from pidpipe.config import load_config
-    from pidpipe.design.ceq_table import read_ceq_table
-    from pidpipe.design.surrogate import fit_surrogate
-    from pidpipe.steps.panel import panel_study_from_config, write_panel_study
-
     from pidpipe.config.sections import Settings
+    from pidpipe.steps.panel import panel_study_from_config, write_panel_study
 
     config = load_config(args.config)
     settings = Settings.from_config(config)
     if not settings.environments:
         raise PidpipeError(f"{args.config}: no environments to design for (config key environments)")
-    table_path = args.table or Path(settings.optimisation.external_ceq_table or "results/ceq_table.csv")
-    surrogate = fit_surrogate(read_ceq_table(table_path), method=settings.surrogate.method,
-                              source=str(table_path), allow_holes=settings.surrogate.allow_holes)
+    surrogate = _table_surrogate(args.table, settings)
     print(f"pidpipe: {surrogate.describe()}", file=sys.stderr, flush=True)
     study = panel_study_from_config(config, surrogate)
     write_panel_study(study, args.output_dir)

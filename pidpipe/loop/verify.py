@@ -480,20 +480,24 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
 
 def off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the C_eq surrogate is off (for the rule's log)."""
-    return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
-            f"{row['ceq_coupon_dem_ns_m']:.4g} +- {row['ceq_coupon_dem_sem_ns_m']:.2g}, surrogate "
-            f"{row['ceq_coupon_surrogate_ns_m']:.4g} +- {row['surrogate_u_ns_m']:.2g} N*s/m, "
-            f"z = {row['z_combined']:+.2f}"
-            for _, row in table[table["surrogate_off"]].iterrows()]
+    return _off_lines(table, "surrogate_off", "", "ceq_coupon_dem_ns_m", "ceq_coupon_dem_sem_ns_m",
+                      "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m", "N*s/m", "z_combined")
 
 
 def m_eff_off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the m_eff surrogate is off (for the rule's log)."""
+    return _off_lines(table, "m_eff_off", "m_eff ", "m_eff_dem_kg", "m_eff_dem_sem_kg",
+                      "m_eff_surrogate_kg", "m_eff_surrogate_u_kg", "kg", "z_m_eff")
+
+
+def _off_lines(table: pd.DataFrame, flag: str, label: str, dem: str, dem_sem: str,
+               surrogate: str, surrogate_u: str, unit: str, z: str) -> list[str]:
+    """``<environment>, <design>, <point> (<case>): DEM <label>x +- s, surrogate y +- u <unit>,
+    z = ...`` for every row whose ``flag`` column is set."""
     return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
-            f"m_eff {row['m_eff_dem_kg']:.4g} +- {row['m_eff_dem_sem_kg']:.2g}, surrogate "
-            f"{row['m_eff_surrogate_kg']:.4g} +- {row['m_eff_surrogate_u_kg']:.2g} kg, "
-            f"z = {row['z_m_eff']:+.2f}"
-            for _, row in table[table["m_eff_off"]].iterrows()]
+            f"{label}{row[dem]:.4g} +- {row[dem_sem]:.2g}, surrogate "
+            f"{row[surrogate]:.4g} +- {row[surrogate_u]:.2g} {unit}, z = {row[z]:+.2f}"
+            for _, row in table[table[flag]].iterrows()]
 
 
 def _join(note: str, more: str) -> str:
