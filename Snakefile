@@ -69,6 +69,7 @@ for _pour_rules in get_pour_rules():
 include: get_simulate_rules()
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/table.smk"
+include: "workflow/rules/refine.smk"
 include: "workflow/rules/surrogate.smk"
 include: "workflow/rules/optimise.smk"
 include: "workflow/rules/figures.smk"

@@ -7,7 +7,7 @@ full machine-readable record. ``pidpipe check-config`` validates a config and pr
 ``pidpipe optimise [--table FILE]`` runs the optimisation stage alone on the campaign's C_eq
 table or any table with the four required columns, and prints the designs.
 ``pidpipe refine [--table FILE] [--output-dir DIR]`` runs (or resumes) the design-driven
-refinement loop on the compiled DEM and prints each round and what stopped it.
+refinement loop on the config's engine and prints each round and what stopped it.
 User errors print one line and exit 2, never a traceback.
 """
 
@@ -93,15 +93,17 @@ def _parser() -> argparse.ArgumentParser:
     panel.add_argument("--output-dir", type=Path, default=Path("results/panel"),
                        help="folder of the outputs (default: results/panel)")
     refine = commands.add_parser(
-        "refine", help="run or resume the design-driven refinement loop on the compiled DEM",
+        "refine", help="run or resume the design-driven refinement loop on the config's engine",
         description="From a C_eq table, in rounds: fit the GP surrogate, optimise the designs, "
-                    "verify them with the compiled DEM, and run the DEM cases that most reduce "
+                    "verify them with the config's engine, and run the cases that most reduce "
                     "the designs' uncertainty, until every design verifies with its 95 % "
                     "interval within refine.interval_fraction, or refine.max_cpu_s of planned "
-                    "DEM CPU is spent, or refine.max_rounds have run (pidpipe.refine). Resumes "
-                    "from the table it wrote in --output-dir. Prints each round and what "
-                    "stopped the loop; writes ceq_table.csv, rounds.csv, summary.json and "
-                    "convergence.png there, the DEM's files in <output-dir>/work.")
+                    "engine CPU is spent, or refine.max_rounds have run (pidpipe.refine). "
+                    "Resumes from the table it wrote in <output-dir>/state. Prints each round "
+                    "and what stopped the loop; writes rounds.csv, summary.json and "
+                    "convergence.png in --output-dir, the engine's files in <output-dir>/work, "
+                    "and the table the designs rest on beside the output folder "
+                    "(ceq_table_refined.csv), as snakemake refine does.")
     refine.add_argument("--table", type=Path, default=Path("results/ceq_table.csv"),
                         help="the grid's C_eq table (CSV), read when --output-dir has no table of "
                              "the loop's (default: results/ceq_table.csv)")
@@ -367,59 +369,43 @@ def format_panel(study) -> str:
 
 
 def refine_command(args: argparse.Namespace) -> int:
-    """Run or resume the refinement loop on the compiled DEM; print every round and the stop."""
+    """Run or resume the refinement loop on the config's engine; print every round and the stop."""
     from pidpipe.config import load_config
     from pidpipe.config.refine import RefineSettings
     from pidpipe.config.sections import Settings
+    from pidpipe.refine.report import format_round
     from pidpipe.steps.refine import refine_campaign
 
     config = load_config(args.config)
     settings, refine = Settings.from_config(config), RefineSettings.from_config(config)
-    resuming = (args.output_dir / "ceq_table.csv").is_file()
+    state = args.output_dir / "state" / "ceq_table.csv"
+    resuming = state.is_file()
     if not resuming and not args.table.is_file():
         raise PidpipeError(f"--table {args.table}: no such file (run the campaign first, or name "
                            "a C_eq table)")
-    start = (f"resuming from {args.output_dir / 'ceq_table.csv'}" if resuming
-             else f"starting from {args.table}")
-    print(f"pidpipe: refine on the compiled DEM, {start}; budget {refine.max_cpu_s:g} planned "
+    if args.cores < 1:
+        raise PidpipeError(f"--cores {args.cores} is not allowed: it must be >= 1")
+    start = f"resuming from {state}" if resuming else f"starting from {args.table}"
+    print(f"pidpipe: refine on {config['engine']}, {start}; budget {refine.max_cpu_s:g} planned "
           f"CPU-s, {refine.cases_per_round} case(s) per round, at most {refine.max_rounds} "
           f"rounds; each design within +-{100 * refine.interval_fraction:g} % and "
           f"|z| <= {settings.verify.flag_z:g}", flush=True)
-    if args.cores < 1:
-        raise PidpipeError(f"--cores {args.cores} is not allowed: it must be >= 1")
     outcome, engine = refine_campaign(config, args.table, args.output_dir,
                                       on_round=lambda record: print(format_round(record),
                                                                     flush=True),
                                       cores=args.cores)
     print(f"stopped: {outcome.stopped_by} after {len(outcome.rounds)} round(s) in this run; "
-          f"the DEM ran {len(engine.runs)} case(s) in it; planned DEM CPU of the loop "
+          f"the engine ran {len(engine.runs)} case(s) in it; planned engine CPU of the loop "
           f"{outcome.table['planned_cpu_s'].sum():.1f} s of {refine.max_cpu_s:g} s")
     spent = engine.measured
-    print(f"measured in this run: DEM shaking {spent['shake_cpu_s']:.1f} CPU-s, pours "
+    print(f"measured in this run: shaking {spent['shake_cpu_s']:.1f} CPU-s, pours "
           f"{spent['pour_cpu_s']:.1f} CPU-s ({spent['pour_wall_s']:.1f} s wall; the plan charges "
           "every case its packings' pours, shared ones too)")
     for line in outcome.open:
         print(f"  open: {line}")
-    print(f"wrote {args.output_dir}/ceq_table.csv, rounds.csv, summary.json, convergence.png")
+    print(f"wrote {args.output_dir}/rounds.csv, summary.json, convergence.png (the loop's table "
+          f"in {args.output_dir}/state), and {args.output_dir.parent}/ceq_table_refined.csv")
     return 0
-
-
-def format_round(record) -> str:
-    """A round of the refinement loop as plain text: what it added, its CPU, every design's
-    interval and worst |z| (:class:`pidpipe.refine.loop.RoundRecord`)."""
-    import math
-
-    lines = [f"round {record.round}: {record.cases_added} new case(s), {record.cases_extended} "
-             f"extended, {record.verify_cases} verifying; planned DEM CPU {record.engine_cpu_s:.1f} s "
-             f"(loop total {record.cumulative_cpu_s:.1f} s)"]
-    for interval in record.intervals:
-        name = f"{interval.environment}/{interval.kind}"
-        z = record.worst_z.get(name, math.nan)
-        lines.append(f"  {name:<34} r {interval.fill_pct:5.1f} %  {interval.n_cells:5.0f} cells  "
-                     f"total C_eq {interval.total_ceq_ns_m:.4g} N s/m [{interval.lo:.4g}, "
-                     f"{interval.hi:.4g}] (+-{100 * interval.half_width_fraction:.1f} %)  worst |z| "
-                     + (f"{abs(z):.2f}" if math.isfinite(z) else "not verified"))
-    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -30,12 +30,16 @@ class RefineSettings:
     max_rounds : int
         Rounds at most (>= 1); the last one fits, optimises and verifies, and runs no case of
         its own.
+    enabled : bool
+        Whether the workflow's campaign runs the loop after the grid's pilots and designs on
+        its table (``results/ceq_table_refined.csv``); ``pidpipe refine`` runs it either way.
     """
 
     interval_fraction: float = 0.10
     max_cpu_s: float = 3600.0
     cases_per_round: int = 4
     max_rounds: int = 20
+    enabled: bool = False
 
     def __post_init__(self) -> None:
         problems = self.problems()
@@ -54,6 +58,9 @@ class RefineSettings:
                 and self.max_cpu_s > 0):
             lines.append(f"config key refine.max_cpu_s = {self.max_cpu_s!r} is not allowed: it "
                          "must be a finite number > 0 (planned engine CPU seconds)")
+        if not isinstance(self.enabled, bool):
+            lines.append(f"config key refine.enabled = {self.enabled!r} is not allowed: it must "
+                         "be true or false")
         for key, least in (("cases_per_round", 1), ("max_rounds", 1)):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
@@ -67,10 +74,11 @@ class RefineSettings:
         section = config["refine"]
         return cls(interval_fraction=float(section["interval_fraction"]),
                    max_cpu_s=float(section["max_cpu_s"]),
-                   cases_per_round=section["cases_per_round"], max_rounds=section["max_rounds"])
+                   cases_per_round=section["cases_per_round"], max_rounds=section["max_rounds"],
+                   enabled=section.get("enabled", False))
 
     def as_params(self) -> dict:
         """The plain dict a rule's ``params`` carries (and :meth:`from_config` reads back)."""
         return {"refine": {"interval_fraction": self.interval_fraction,
                            "max_cpu_s": self.max_cpu_s, "cases_per_round": self.cases_per_round,
-                           "max_rounds": self.max_rounds}}
+                           "max_rounds": self.max_rounds, "enabled": self.enabled}}

@@ -22,6 +22,7 @@ from pidpipe.design.optimisation import Budget, Environment
 from pidpipe.figures.refine import plot_refine
 from pidpipe.refine.loop import Outcome, refine
 from pidpipe.refine.outputs import read_table, write_rounds, write_summary, write_table
+from pidpipe.refine.table import with_grid
 
 
 def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, measure: Callable,
@@ -33,9 +34,12 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
     Parameters
     ----------
     grid_table : path
-        The grid's C_eq table (``results/ceq_table.csv``), read when ``out_dir`` has no table.
+        The grid's C_eq table (``results/ceq_table.csv``). When ``out_dir`` has a table of the
+        loop's, the loop resumes from it; if its grid rows are not the grid table's (the
+        campaign was rerun or its grid changed), they are replaced by the grid table's and the
+        loop's own rows are kept (:func:`pidpipe.refine.table.with_grid`).
     out_dir : path
-        ``results/refine``: ``ceq_table.csv`` (the loop's table), ``rounds.csv``,
+        ``results/refine/state``: ``ceq_table.csv`` (the loop's table), ``rounds.csv``,
         ``summary.json``, ``convergence.png`` and ``.pdf``.
     fit, measure, verify, cost, environments, budget, search, settings, flag_z
         As :func:`pidpipe.refine.loop.refine`.
@@ -44,12 +48,13 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
     """
     out = Path(out_dir)
     table_path, rounds_path = out / "ceq_table.csv", out / "rounds.csv"
-    table = read_table(table_path) if table_path.is_file() else read_ceq_table(grid_table)
+    grid = read_ceq_table(grid_table)
+    table = with_grid(read_table(table_path), grid) if table_path.is_file() else grid
     outcome = refine(table, fit, measure, verify, cost, environments, budget, search, settings,
                      flag_z, save=lambda t: write_table(t, table_path),
                      on_round=lambda record: _round_done(record, rounds_path, on_round))
     write_table(outcome.table, table_path)
-    write_summary(outcome, out / "summary.json")
+    write_summary(outcome, out / "summary.json", pd.read_csv(rounds_path))
     plot_refine(pd.read_csv(rounds_path), out / "convergence", settings.interval_fraction, flag_z)
     return outcome
 

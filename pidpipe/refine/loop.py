@@ -41,6 +41,7 @@ from pidpipe.refine.intervals import DesignInterval, design_intervals
 from pidpipe.refine.table import (
     VERIFY_SOURCE,
     append_rows,
+    as_stored,
     fit_table,
     last_round,
     round_source,
@@ -132,7 +133,7 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
     on_round : callable, optional
         ``on_round(record)`` after each round.
     """
-    table = start_table(table)
+    table = as_stored(start_table(table))
     spheres = int(round(budget.full_cell_spheres))
     rounds: list[RoundRecord] = []
     round_index = max(1, last_round(table))
@@ -229,7 +230,7 @@ def _run(table: pd.DataFrame, requests: list[Request], round_index: int, verify:
     if cases or more:
         parts.append((cases + more, measure(cases, more)))
     for done, rows in parts:
-        table = append_rows(table, _tag(rows, done, round_index, cost))
+        table = as_stored(append_rows(table, _tag(rows, done, round_index, cost)))
         if save is not None:
             save(table)
     return table

@@ -21,6 +21,7 @@ import pandas as pd
 
 from pidpipe.files import write_atomic
 from pidpipe.refine.loop import RoundRecord
+from pidpipe.refine.table import from_csv
 
 #: Columns of rounds.csv, in order.
 ROUND_COLUMNS: tuple[str, ...] = (
@@ -70,21 +71,21 @@ def write_table(table: pd.DataFrame, path: str | Path) -> Path:
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
-    """Read a table the loop wrote (``status`` as text, ``refine_round`` as int)."""
-    table = pd.read_csv(path, keep_default_na=True)
-    for column in ("status", "source", "reason", "action", "case_key"):
-        if column in table.columns:
-            table[column] = table[column].fillna("").astype(str)
-    table["refine_round"] = table["refine_round"].astype(int)
-    return table
+    """Read a table the loop wrote (:func:`pidpipe.refine.table.from_csv`)."""
+    return from_csv(path)
 
 
-def summary_record(outcome) -> dict:
-    """What stopped the loop, what is open, and each design's interval (for summary.json)."""
+def summary_record(outcome, rounds: pd.DataFrame | None = None) -> dict:
+    """What stopped the loop, what is open, and each design's interval (for summary.json).
+
+    ``rounds`` (rows of rounds.csv) gives the rounds run when the loop ran in several calls
+    (resumed, or the workflow's steps); without it, the outcome's own rounds."""
+    run = (sorted({int(n) for n in rounds["round"]}) if rounds is not None
+           else [record.round for record in outcome.rounds])
     return {
         "stopped_by": outcome.stopped_by,
         "open": list(outcome.open),
-        "rounds_run": [record.round for record in outcome.rounds],
+        "rounds_run": run,
         "planned_cpu_s": float(outcome.table["planned_cpu_s"].sum()),
         "designs": [{"environment": i.environment, "design": i.kind, "fill_pct": i.fill_pct,
                      "n_cells": i.n_cells, "total_ceq_ns_m": i.total_ceq_ns_m,
@@ -94,9 +95,9 @@ def summary_record(outcome) -> dict:
     }
 
 
-def write_summary(outcome, path: str | Path) -> Path:
+def write_summary(outcome, path: str | Path, rounds: pd.DataFrame | None = None) -> Path:
     """Write :func:`summary_record` as JSON."""
     import json
 
-    text = json.dumps(summary_record(outcome), indent=1)
+    text = json.dumps(summary_record(outcome, rounds), indent=1)
     return write_atomic(path, lambda tmp: Path(tmp).write_text(text + "\n"))

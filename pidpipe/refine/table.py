@@ -27,6 +27,8 @@ the table it wrote decides round N again exactly as before and finds the rows it
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 import pandas as pd
 
@@ -79,6 +81,46 @@ def start_table(grid: pd.DataFrame) -> pd.DataFrame:
     table["action"] = "new"
     table["planned_cpu_s"] = 0.0
     return table
+
+
+def from_csv(source) -> pd.DataFrame:
+    """A table the loop wrote, read from a path or a text stream (``status``, ``source``,
+    ``reason``, ``action`` and ``case_key`` as text, ``refine_round`` as int)."""
+    table = pd.read_csv(source, keep_default_na=True)
+    for column in ("status", "source", "reason", "action", "case_key"):
+        if column in table.columns:
+            table[column] = table[column].fillna("").astype(str)
+    table["refine_round"] = table["refine_round"].astype(int)
+    return table
+
+
+def as_stored(table: pd.DataFrame) -> pd.DataFrame:
+    """The table as it reads back from its CSV file (:func:`from_csv`).
+
+    The loop decides every round from the table in this form, whether the table was read from
+    its file or grown in memory: a loop resumed from its file then decides exactly as the loop
+    that wrote it (the text of a missing flag, a column's type, would otherwise differ)."""
+    return from_csv(io.StringIO(table.to_csv(index=False)))
+
+
+def with_grid(table: pd.DataFrame, grid: pd.DataFrame) -> pd.DataFrame:
+    """The loop's table on ``grid``: its grid rows (round 0) replaced by ``grid``'s when they
+    differ (same rows, in order, and same C_eq and SEM), its own rows kept after them.
+
+    The loop's rows stay measurements of their cases whatever grid they were chosen from; a
+    loop resumed on a new grid decides its next round from both.
+    """
+    fresh = start_table(grid)
+    mine = table[table["refine_round"] == 0]
+    columns = ["case_key", VALUE_COLUMN, SEM_COLUMN]
+    same = (len(mine) == len(fresh) and all(c in mine.columns for c in columns)
+            and mine["case_key"].tolist() == fresh["case_key"].tolist()
+            and np.allclose(mine[columns[1:]].to_numpy(dtype=float),
+                            fresh[columns[1:]].to_numpy(dtype=float), rtol=1e-9, atol=0.0,
+                            equal_nan=True))
+    if same:
+        return table
+    return append_rows(fresh, table[table["refine_round"] > 0])
 
 
 def append_rows(table: pd.DataFrame, rows: pd.DataFrame) -> pd.DataFrame:

@@ -75,10 +75,31 @@ def phase_figure_targets(inspection: Inspection, phase_figure_cases: list[str]) 
     return [f"results/figures/phase/{case_id}.png" for case_id in phase_figure_cases]
 
 
-def ceq_table_path(optimisation: Optimisation) -> str:
-    """The table the surrogate is fitted to: ``optimisation.external_ceq_table``, else the
+#: The campaign's C_eq table, and the refinement loop's (what its last round fitted).
+CAMPAIGN_TABLE, REFINED_TABLE = "results/ceq_table.csv", "results/ceq_table_refined.csv"
+
+
+def ceq_table_path(optimisation: Optimisation, refine_enabled: bool = False) -> str:
+    """The table the surrogate is fitted to: ``optimisation.external_ceq_table``; else, with
+    ``refine.enabled``, the refinement loop's (``results/ceq_table_refined.csv``); else the
     campaign's ``results/ceq_table.csv``."""
-    return optimisation.external_ceq_table or "results/ceq_table.csv"
+    if optimisation.external_ceq_table:
+        return optimisation.external_ceq_table
+    return REFINED_TABLE if refine_enabled else CAMPAIGN_TABLE
+
+
+def refine_params(config: dict) -> dict:
+    """What the refinement loop's steps and runs depend on, as their rules' params carry it:
+    the cases' settings (:func:`pidpipe.config.stages.stage_config`), the environments, the
+    optimisation and its budget, the surrogate, verify's threshold and the loop's settings."""
+    from pidpipe.config.stages import stage_config
+
+    depends = stage_config(config, "case")
+    depends["engine"] = config.get("engine", "liggghts")
+    for key in ("environments", "optimisation", "budget", "surrogate", "refine"):
+        depends[key] = config[key]
+    depends["verify"] = {"flag_z": config["verify"]["flag_z"]}
+    return depends
 
 
 #: The m_eff surrogate (:func:`pidpipe.steps.design.fit_m_eff_surrogate`) and its maps.

@@ -1,304 +1,177 @@
-"""The refinement loop bound to the compiled DEM: ``measure``, ``verify`` and ``cost``, and the
-step that runs or resumes the loop on a config (:func:`refine_campaign`, ``pidpipe refine``).
+"""The refinement loop run on a config: at once (``pidpipe refine``) or as workflow steps.
 
-:class:`DemEngine` gives :func:`pidpipe.refine.loop.refine` the three callables it needs. Every
-request is run as one case of the campaign is (:func:`pidpipe.steps.cases.measure_case`):
-packings poured with ``fidelity.pour_engine`` and checked
-(:func:`pidpipe.cell.packing.check_packing`), then shaken by the compiled DEM; its record is
-turned into a table row by the campaign's row builder
-(:func:`pidpipe.design.records.records_to_table`).
+Both write the same files under the refinement's folder (``results/refine``):
 
-What each request runs (:meth:`DemEngine.plan`)
-    ``new``
-        The case's pilot, as configured: ``fidelity.cells_per_run`` cells x ``measured_cycles``,
-        on the campaign's pilot packings of that fill (indices 0 .. k0 - 1). The loop, not
-        ``fidelity.target_relative_sem``, decides whether the case gets more: the uniform
-        target's steps could not be planned before the case runs, and the loop's budget counts
-        planned CPU.
-    ``extend``
-        A further replicate of the case with (factor - 1) x the base row's cells, each over the
-        base row's measured cycles (those its allocation reached), so that the pooled row has
-        factor x the base's effort in the same proportion of cells to cycles, and its SEM is
-        about the base's / sqrt(factor), as the loop's choice expects
-        (:mod:`pidpipe.refine.choice`); on packings no campaign case shakes (replicate
-        100 + q of the pool, :func:`pidpipe.steps.cases.extra_packing_index`, q the base row's
-        replicate count). ``fidelity.max_cells_per_case`` does not cap it: the loop's budget
-        and the cost of the cells (the choice weighs gain per planned CPU second) do. Its row
-        is pooled with the base row (:func:`pool_rows`) and supersedes it.
-    ``verify`` / ``reverify``
-        The point's pilot on packings of their own (replicate 200 + run), so that a verifying
-        run is never a rerun of a fitted case at the same point.
+``state/``
+    the loop's own files (:func:`pidpipe.refine.campaign.refine_files`): its append-only table
+    ``ceq_table.csv``, ``rounds.csv``, and, once it stops, ``summary.json`` and the convergence
+    figure;
+``work/``
+    the engine's packings, case folders, records and waiting plans
+    (:class:`pidpipe.steps.refine_engine.CaseEngine`);
+``rounds.csv``, ``summary.json``, ``convergence.png`` / ``.pdf``
+    the finished loop's outputs (:func:`finish_refine`), and the design table beside the
+    campaign's (``results/ceq_table_refined.csv``): what the loop's last round fitted.
 
-The cost (:meth:`DemEngine.cost`) is the cost models' (``cost_models.json``,
-:mod:`pidpipe.measurement.cost_model`) for exactly that plan: the DEM run of k cells x
-(transient + measured cycles) x steps per cycle at the fill's spheres, plus one pour per packing
-on ``fidelity.pour_engine``. Every request is charged its packings' pours, although the pool
-pours a packing once and every later case of that fill and replicate reads it (a design's five
-verifying points share theirs): the planned CPU over-states a round whose cases share
-packings, so the budget is never overrun, and it depends only on the request, so a resumed loop
-plans the same. With the default config (LIGGGHTS pours, 7 cells) the pours are nearly all of
-a case's planned CPU; :attr:`DemEngine.measured` keeps what was spent.
-
-Every record is written under ``work_dir/cases/<case id>.json``; a request whose record is
-there (made with the same plan) is read, not run again, so that a loop killed inside a round's
-``measure`` resumes without rerunning the cases it finished. The requests of one call run up
-to ``cores`` at a time, each in a worker process (``pidpipe refine --cores``).
+``pidpipe refine`` (:func:`refine_campaign`) runs the loop in one process, a round's cases up
+to ``--cores`` at a time. The workflow (``workflow/rules/refine.smk``) runs it in steps: each
+step (:func:`refine_step`, a Snakemake checkpoint) asks the loop again from its saved table,
+with an engine that runs nothing; the loop decides its round as before, finds the rows and
+records it has, and stops at the first runs it lacks; the step names them, Snakemake runs each
+as a job (:func:`run_refine_plan`, up to ``--cores`` at a time, on a cluster as jobs of their
+own), and the next step continues. A round takes at most two steps (its verifying runs, then
+its cases). The loop's decisions depend only on its table, so a killed campaign resumes with
+only the missing runs.
 """
 
 from __future__ import annotations
 
+import json
 import logging
-import math
-import multiprocessing
-import os
-import time
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
+import shutil
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
 import pandas as pd
 
-from pidpipe.cases import CaseSpec
-from pidpipe.config.settings import PourSettings, ShakeSettings
-from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN, signal_quality
 from pidpipe.errors import PidpipeError
-from pidpipe.refine.candidates import Request
+from pidpipe.files import write_atomic
+from pidpipe.steps.refine_engine import CaseEngine, Plan, RunsNeeded
 
 logger = logging.getLogger("pidpipe.refine")
 
-#: Replicate numbers of the loop's own runs: extensions from 100, verifying runs from 200
-#: (the campaign's replicates stay below 100, :mod:`pidpipe.steps.cases`).
-EXTEND_REPLICATES_FROM, VERIFY_REPLICATES_FROM = 100, 200
+#: A step's ``status``: the loop stopped, or it waits for the runs the step names.
+STEP_DONE, STEP_RUNS_NEEDED = "done", "runs needed"
 
 
-@dataclass(frozen=True)
-class Plan:
-    """What the DEM runs for one request.
-
-    Attributes
-    ----------
-    case : CaseSpec
-        The case (its replicate says which run of the loop it is).
-    packings : tuple of int
-        Packing indices of the fill, one per cell (seed ``fidelity.seed`` + index).
-    measured_cycles : int
-        Measured cycles of the run (after ``fidelity.transient_cycles_at(f)``).
-    n_spheres : int
-        Spheres per cell.
-    """
-
-    case: CaseSpec
-    packings: tuple[int, ...]
-    measured_cycles: int
-    n_spheres: int
-
-    @property
-    def cells(self) -> int:
-        return len(self.packings)
-
-
-class DemEngine:
-    """``measure``, ``verify`` and ``cost`` of the loop on the compiled DEM.
-
-    Parameters
-    ----------
-    pour : PourSettings
-        How packings are poured (``fidelity.pour_engine``, the fill's spheres).
-    shake : ShakeSettings
-        The cases' settings; its engine must be ``dem``.
-    work_dir : path
-        ``results/refine/work``: packings in ``packings/``, case folders and records in
-        ``cases/``.
-    cores : int
-        Requests of one call run up to this many at a time, each in a worker process (cases of
-        one fill share their packings through the pool's locks); 1: one after another here.
-
-    Attributes
-    ----------
-    runs : list of str
-        Case ids the engine shook (records read from ``work_dir`` are not counted).
-    measured : dict
-        What those runs spent: ``shake_cpu_s`` (the DEM's CPU from their records),
-        ``pour_cpu_s`` and ``pour_wall_s`` (the pools' pours, this process's CPU and its child
-        processes', e.g. LIGGGHTS'), s.
-    """
-
-    def __init__(self, pour: PourSettings, shake: ShakeSettings, work_dir: str | Path,
-                 cores: int = 1):
-        from pidpipe.measurement.cost_model import load_cost_model
-
-        if shake.engine != "dem":
-            raise PidpipeError(f"the refinement's engine binding runs the compiled DEM; the "
-                               f"config's engine is {shake.engine!r} (set engine: dem)")
-        if isinstance(cores, bool) or not isinstance(cores, int) or cores < 1:
-            raise PidpipeError(f"cores {cores!r} is not allowed: it must be a whole number >= 1")
-        self.pour, self.work_dir, self.cores = pour, Path(work_dir), cores
-        self.shake = replace(shake, sampling=replace(shake.sampling, target_relative_sem=None))
-        self.run_model = load_cost_model("dem")
-        self.pour_model = load_cost_model(pour.pouring.engine)
-        if self.run_model is None or self.pour_model is None:
-            raise PidpipeError("the refinement plans with the stored cost models of the dem engine "
-                               f"and of fidelity.pour_engine {pour.pouring.engine!r}; "
-                               "pidpipe/measurement/cost_models.json lacks one: run "
-                               "benchmarks/bench_cells.py --cost --engine dem")
-        self.runs: list[str] = []
-        self.measured = {"shake_cpu_s": 0.0, "pour_cpu_s": 0.0, "pour_wall_s": 0.0}
-
-    @classmethod
-    def from_config(cls, config: dict, work_dir: str | Path, cores: int = 1) -> "DemEngine":
-        """The engine of a validated config (its ``engine`` set to ``dem``)."""
-        config = {**config, "engine": "dem"}
-        return cls(PourSettings.from_config(config), ShakeSettings.from_config(config), work_dir,
-                   cores)
-
-    # -- plans and their cost ------------------------------------------------------------------
-
-    def plan(self, request: Request) -> Plan:
-        """What the DEM runs for ``request`` (see the module's text)."""
-        from pidpipe.steps.cases import EXTRA_PACKINGS_PER_REPLICATE, extra_packing_index
-
-        sampling = self.shake.sampling
-        spheres = self.pour.fill.spheres(request.fill_pct)
-        k0, cycles = sampling.cells_per_run, sampling.measured_cycles
-        point = (request.freq_hz, request.accel_g, request.fill_pct)
-        if request.action == "new":
-            return Plan(CaseSpec(*point, 0), tuple(range(k0)), cycles, spheres)
-        if request.action == "extend":
-            base = request.base
-            q = max(1, _integer(base.get("n_replicates"), 1))
-            cycles = _integer(base.get("measured_cycles"), cycles)
-            cells = int(math.ceil((request.factor - 1.0) * _cells_of(base, k0) - 1e-9))
-            cells = min(max(cells, 1), EXTRA_PACKINGS_PER_REPLICATE)
-            replicate = EXTEND_REPLICATES_FROM + q
-            return Plan(CaseSpec(*point, replicate),
-                        tuple(extra_packing_index(replicate, j) for j in range(cells)),
-                        cycles, spheres)
-        if request.action in ("verify", "reverify"):
-            replicate = VERIFY_REPLICATES_FROM + int(request.run)
-            return Plan(CaseSpec(*point, replicate),
-                        tuple(extra_packing_index(replicate, j) for j in range(k0)),
-                        cycles, spheres)
-        raise ValueError(f"request action {request.action!r}: new, extend, verify or reverify")
-
-    def plan_cpu_s(self, plan: Plan) -> float:
-        """Planned CPU of a plan, s: the run, and one pour per packing."""
-        from pidpipe.cell.scene import CellScene
-
-        steps_per_cycle = CellScene.of(self.shake).timestep(plan.case.freq_hz).steps_per_cycle
-        transient = self.shake.sampling.transient_cycles_at(plan.case.freq_hz)
-        steps = (transient + plan.measured_cycles) * steps_per_cycle
-        return (self.run_model.run_cpu_s(plan.cells, plan.n_spheres, steps)
-                + plan.cells * self.pour_model.pour_cpu_s(plan.n_spheres))
-
-    def cost(self, request: Request) -> float:
-        """``cost(request)``: the planned engine CPU of what ``request`` runs, s."""
-        return self.plan_cpu_s(self.plan(request))
-
-    # -- runs ----------------------------------------------------------------------------------
-
-    def measure(self, cases, more) -> pd.DataFrame:
-        """``measure(cases, more)``: one row per request, new cases then extensions.
-
-        An extension's row is its runs' row pooled with the row it extends (:func:`pool_rows`).
-        """
-        cases, more = list(cases), list(more)
-        records = self._records([self.plan(request) for request in cases + more])
-        rows = [_row(record) for record in records[:len(cases)]]
-        rows += [pool_rows(request.base, _row(record))
-                 for request, record in zip(more, records[len(cases):])]
-        return pd.DataFrame(rows)
-
-    def verify(self, points) -> pd.DataFrame:
-        """``verify(points)``: one row per verifying request."""
-        records = self._records([self.plan(request) for request in points])
-        return pd.DataFrame([_row(record) for record in records])
-
-    def _records(self, plans: list[Plan]) -> list:
-        """The plans' records, in order: up to ``cores`` at a time in worker processes."""
-        if self.cores > 1 and len(plans) > 1:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(min(self.cores, len(plans)), mp_context=context) as pool:
-                done = list(pool.map(self._record, plans))
-        else:
-            done = [self._record(plan) for plan in plans]
-        for record, spent in done:
-            if spent is not None:
-                self.runs.append(record.case_id)
-                for key, value in spent.items():
-                    self.measured[key] += value
-        return [record for record, _ in done]
-
-    def _record(self, plan: Plan) -> tuple:
-        """The plan's case record, and what making it spent (None when ``work_dir`` had it)."""
-        from pidpipe.cell.packing import check_packing
-        from pidpipe.measurement.case_record import CaseRecord
-        from pidpipe.steps.cases import measure_case, pool_packings
-
-        case = plan.case
-        path = self.work_dir / "cases" / f"{case.case_id}.json"
-        if path.is_file():
-            record = CaseRecord.read(path)
-            if _made_by(record, plan):
-                return record, None
-        sampling = replace(self.shake.sampling, cells_per_run=plan.cells,
-                           max_cells_per_case=max(plan.cells, self.shake.sampling.max_cells_per_case),
-                           measured_cycles=plan.measured_cycles)
-        settings = replace(self.shake, sampling=sampling)
-        before, wall = os.times(), time.perf_counter()
-        packings = pool_packings(self.pour, case.fill_pct, list(plan.packings),
-                                 self.work_dir / "packings")
-        after = os.times()
-        spent = {"pour_wall_s": time.perf_counter() - wall,
-                 "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
-        for packing in packings:
-            check_packing(packing, case.case_id)
-        logger.info("refine: shaking %s: %d cell(s) of %d spheres x %d measured cycles (DEM)",
-                    case.case_id, plan.cells, plan.n_spheres, plan.measured_cycles)
-        record = measure_case(settings, case, packings, self.work_dir / "cases" / case.case_id)
-        record.write(path)
-        spent["shake_cpu_s"] = _record_cpu_s(record)
-        return record, spent
-
-
-def _row(record) -> dict:
-    """The table row of a record (:func:`pidpipe.design.records.records_to_table`), with the
-    cells it measured (``cells``) and its measured DEM CPU (``engine_cpu_s``, s)."""
-    from pidpipe.design.records import records_to_table
-
-    row = records_to_table([record]).iloc[0].to_dict()
-    row["cells"] = len(record.cells or ()) or 1
-    row["engine_cpu_s"] = _record_cpu_s(record)
-    return row
-
-
-def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
+def refine_campaign(config: dict, grid_table: str | Path, refine_dir: str | Path,
                     on_round: Callable | None = None, cores: int = 1):
-    """Run or resume the refinement loop of a validated config on the compiled DEM.
-
-    The surrogate is the GP (:func:`pidpipe.design.surrogate.fit_surrogate` with
-    ``method="gp"``, its default fit policy, holes allowed); the designs, their search, the
-    verify threshold and the loop's settings are the config's; the DEM's files go to
-    ``out_dir/work``.
+    """Run or resume the refinement loop of a validated config in this process.
 
     Parameters
     ----------
     config : dict
-        A validated config (:func:`pidpipe.config.load_config`); its ``engine`` is taken as
-        ``dem``.
-    grid_table, out_dir : path
-        As :func:`pidpipe.refine.campaign.refine_files`.
+        A validated config (:func:`pidpipe.config.load_config`); its ``engine`` runs the cases.
+    grid_table : path
+        The campaign's C_eq table (``results/ceq_table.csv``), read when the loop has no table
+        of its own yet.
+    refine_dir : path
+        The refinement's folder (``results/refine``; see the module's text).
     on_round : callable, optional
         ``on_round(record)`` after each round.
     cores : int
-        A round's cases run up to this many at a time (:class:`DemEngine`).
+        A round's cases run up to this many at a time (:class:`CaseEngine`).
 
     Returns
     -------
-    (Outcome, DemEngine)
+    (Outcome, CaseEngine)
         The loop's outcome, and the engine (its ``runs``: the cases it shook in this call).
     """
+    engine = CaseEngine.from_config(config, Path(refine_dir) / "work", cores)
+    outcome = _run_loop(config, grid_table, refine_dir, engine, on_round)
+    finish_refine(refine_dir, Path(refine_dir).parent / "ceq_table_refined.csv")
+    return outcome, engine
+
+
+def refine_step(config: dict, grid_table: str | Path, refine_dir: str | Path,
+                step_path: str | Path) -> dict:
+    """One step of the workflow's loop: run the loop until it stops or lacks runs; say which.
+
+    Writes ``step_path`` (JSON): ``{"status": "done", "stopped_by": ..., "open": [...]}`` or
+    ``{"status": "runs needed", "runs": [case ids]}``, the plans of those runs being in
+    ``refine_dir/work/plans/<case id>.json``.
+
+    Parameters
+    ----------
+    config : dict
+        A validated config.
+    grid_table, refine_dir
+        As :func:`refine_campaign`.
+    step_path : path
+        The step's file (``results/refine/steps/<n>.json``).
+
+    Returns
+    -------
+    dict
+        What the step wrote.
+    """
+    engine = CaseEngine.from_config(config, Path(refine_dir) / "work", run_missing=False)
+    try:
+        outcome = _run_loop(config, grid_table, refine_dir, engine, _log_round)
+    except RunsNeeded as needed:
+        step = {"status": STEP_RUNS_NEEDED, "runs": needed.case_ids}
+        logger.info("refine: %d run(s) needed: %s", len(needed.case_ids),
+                    ", ".join(needed.case_ids))
+    else:
+        step = {"status": STEP_DONE, "stopped_by": outcome.stopped_by, "open": outcome.open}
+        logger.info("refine: stopped: %s", outcome.stopped_by)
+        for line in outcome.open:
+            logger.info("refine: open: %s", line)
+    text = json.dumps(step, indent=1) + "\n"
+    write_atomic(step_path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+    return step
+
+
+def read_step(path: str | Path) -> dict:
+    """A step's file (:func:`refine_step`)."""
+    try:
+        step = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise PidpipeError(f"refinement step {path}: cannot be read ({error})") from error
+    if step.get("status") not in (STEP_DONE, STEP_RUNS_NEEDED):
+        raise PidpipeError(f"refinement step {path}: status {step.get('status')!r} is neither "
+                           f"{STEP_DONE!r} nor {STEP_RUNS_NEEDED!r}")
+    return step
+
+
+def run_refine_plan(config: dict, refine_dir: str | Path, case_id: str) -> Path:
+    """Run one waiting plan of the loop (a workflow job); return its record's path.
+
+    Parameters
+    ----------
+    config : dict
+        A validated config.
+    refine_dir : path
+        The refinement's folder; the plan is ``work/plans/<case_id>.json``.
+    case_id : str
+        The plan's case id.
+    """
+    engine = CaseEngine.from_config(config, Path(refine_dir) / "work")
+    plan_path = engine.plan_path(case_id)
+    if not plan_path.is_file():
+        raise PidpipeError(f"refinement run {case_id}: no plan at {plan_path}; run the "
+                           "refinement from its first step (snakemake refine)")
+    plan = Plan.read(plan_path)
+    if plan.case.case_id != case_id:
+        raise PidpipeError(f"refinement plan {plan_path} is for {plan.case.case_id}, not {case_id}")
+    engine.run_plan(plan)
+    return engine.record_path(case_id)
+
+
+def finish_refine(refine_dir: str | Path, design_table: str | Path) -> None:
+    """The finished loop's outputs: its state's ``rounds.csv``, ``summary.json`` and figure
+    copied into ``refine_dir``, and the table its last round fitted as ``design_table`` (the
+    latest row of every case, verifying runs left out; columns of ``results/ceq_table.csv``
+    and the loop's, ``source`` saying where each row came from)."""
+    from pidpipe.refine.outputs import read_table, write_table
+    from pidpipe.refine.table import fit_table, last_round
+
+    refine_dir = Path(refine_dir)
+    state = refine_dir / "state"
+    needed = ["ceq_table.csv", "rounds.csv", "summary.json", "convergence.png", "convergence.pdf"]
+    missing = [name for name in needed if not (state / name).is_file()]
+    if missing:
+        raise PidpipeError(f"the refinement in {state} has not finished: no {', '.join(missing)}; "
+                           "run snakemake refine")
+    for name in needed[1:]:
+        write_atomic(refine_dir / name,
+                     lambda tmp, source=state / name: shutil.copyfile(source, tmp))
+    table = read_table(state / "ceq_table.csv")
+    write_table(fit_table(table, last_round(table) + 1), design_table)
+
+
+def _run_loop(config: dict, grid_table, refine_dir, engine: CaseEngine, on_round):
+    """The loop of the config's settings on ``engine``, its state in ``refine_dir/state``."""
     from pidpipe.config.refine import RefineSettings
     from pidpipe.config.sections import Settings
     from pidpipe.design.surrogate import fit_surrogate
@@ -308,102 +181,19 @@ def refine_campaign(config: dict, grid_table: str | Path, out_dir: str | Path,
     settings, refine = Settings.from_config(config), RefineSettings.from_config(config)
     if not settings.environments:
         raise PidpipeError("no environments to design for (config key environments)")
-    engine = DemEngine.from_config(config, Path(out_dir) / "work", cores)
 
     def fit(table: pd.DataFrame):
         return fit_surrogate(table, method="gp", allow_holes=True, source=str(grid_table))
 
-    outcome = refine_files(grid_table, out_dir, fit, engine.measure, engine.verify, engine.cost,
-                           list(settings.environments), settings.budget,
-                           search_settings(settings.optimisation.as_params()), refine,
-                           settings.verify.flag_z, on_round=on_round)
-    return outcome, engine
+    return refine_files(grid_table, Path(refine_dir) / "state", fit, engine.measure,
+                        engine.verify, engine.cost, list(settings.environments), settings.budget,
+                        search_settings(settings.optimisation.as_params()), refine,
+                        settings.verify.flag_z, on_round=on_round)
 
 
-def pool_rows(base: dict, new: dict) -> dict:
-    """An extension's row: ``new`` (the extension's runs) pooled with ``base`` (the row extended).
+def _log_round(record) -> None:
+    """Log a finished round (the workflow's steps)."""
+    from pidpipe.refine.report import format_round
 
-    C_eq (coupon and cell) is the inverse-variance mean of the two, with SEM
-    1 / sqrt(1 / SEM_base^2 + 1 / SEM_new^2); ``cells`` and ``n_replicates`` add up, flags are
-    united (the extension's prefixed ``extN:``), the status is the less usable of the two
-    (``ok`` only when both are). When either part has no finite SEM > 0 (a failed run), the row
-    is the usable part's, the other noted in ``flags``.
-
-    Parameters
-    ----------
-    base, new : dict
-        Table rows (columns of :data:`pidpipe.design.records.TABLE_COLUMNS`, ``cells``).
-
-    Returns
-    -------
-    dict
-        ``new``'s columns, with the pooled values.
-    """
-    row = dict(new)
-    tag = f"ext{max(1, _integer(base.get('n_replicates'), 1))}"
-    new_flags = [f"{tag}:{flag}" for flag in str(new.get("flags") or "").split(";") if flag]
-    base_flags = [flag for flag in str(base.get("flags") or "").split(";") if flag]
-    usable = [_usable(base), _usable(new)]
-    if not all(usable):
-        keep = base if usable[0] or not usable[1] else new
-        row.update({k: v for k, v in keep.items() if k in row or k in base})
-        other = f"{tag}:{new.get('status')}" if keep is base else f"base:{base.get('status')}"
-        row["flags"] = ";".join(base_flags + new_flags + [other]) if keep is base else \
-            ";".join(new_flags + [other])
-        return row
-    for value, sem in ((VALUE_COLUMN, SEM_COLUMN), ("ceq_cell_ns_m", "ceq_cell_sem_ns_m")):
-        v = np.array([float(base[value]), float(new[value])])
-        s = np.array([float(base[sem]), float(new[sem])])
-        w = 1.0 / s ** 2
-        row[value], row[sem] = float(np.sum(w * v) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
-    row["ceq_relative_sem"], row["signal"] = signal_quality(row[VALUE_COLUMN], row[SEM_COLUMN])
-    row["status"] = "ok" if base.get("status") == new.get("status") == "ok" else "flagged"
-    row["flags"] = ";".join(base_flags + new_flags)
-    row["cells"] = _cells_of(base, 1) + _integer(new.get("cells"), 1)
-    row["n_replicates"] = _integer(base.get("n_replicates"), 1) + 1
-    row["case_id"] = f"{base.get('case_id')};{new.get('case_id')}"
-    return row
-
-
-def _usable(row: dict) -> bool:
-    """A row with a value and a finite SEM > 0, not failed or missing."""
-    try:
-        value, sem = float(row[VALUE_COLUMN]), float(row[SEM_COLUMN])
-    except (KeyError, TypeError, ValueError):
-        return False
-    return (row.get("status") in ("ok", "flagged") and math.isfinite(value)
-            and math.isfinite(sem) and sem > 0)
-
-
-def _cells_of(row: dict, default: int) -> int:
-    """Cells a row measured: its ``cells``, else the counts of ``regime_cells``
-    (``bouncing_bed:5;irregular:2``), else ``cells_per_run``, else ``default``."""
-    cells = _integer(row.get("cells"), 0)
-    if cells > 0:
-        return cells
-    text = row.get("regime_cells")
-    if isinstance(text, str) and text:
-        counts = [_integer(part.rpartition(":")[2], 0) for part in text.split(";")]
-        if sum(counts) > 0:
-            return sum(counts)
-    return max(1, _integer(row.get("cells_per_run"), default))
-
-
-def _integer(value, default: int) -> int:
-    """``value`` as an int, ``default`` when it is missing or not a number."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        return default
-    return int(number) if math.isfinite(number) else default
-
-
-def _made_by(record, plan: Plan) -> bool:
-    """Whether a stored record is the plan's: its cells' seeds and measured cycles."""
-    return (len(record.fidelity.seeds) == plan.cells
-            and int(record.fidelity.get("measured_cycles") or -1) == plan.measured_cycles)
-
-
-def _record_cpu_s(record) -> float:
-    """Measured engine CPU of a record, s (NaN when it does not say)."""
-    return float(record.cpu_time_s)
+    for line in format_round(record).splitlines():
+        logger.info("refine: %s", line)

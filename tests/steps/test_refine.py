@@ -20,7 +20,7 @@ pytest.importorskip("numba")
 from pidpipe.cli import main  # noqa: E402
 from pidpipe.config import load_config  # noqa: E402
 from pidpipe.refine.candidates import Request  # noqa: E402
-from pidpipe.steps.refine import DemEngine, pool_rows  # noqa: E402
+from pidpipe.steps.refine_engine import CaseEngine, pool_rows  # noqa: E402
 from pidpipe.refine.loop import BUDGET_SPENT  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
@@ -41,7 +41,7 @@ def problem(tmp_path_factory):
                         "max_rounds": 6}
     config_path = root / "config.yaml"
     config_path.write_text(yaml.safe_dump(config), encoding="utf-8")
-    engine = DemEngine.from_config(load_config(config_path), root / "grid_work")
+    engine = CaseEngine.from_config(load_config(config_path), root / "grid_work")
     grid = engine.measure([Request(*point) for point in GRID], [])
     grid_path = root / "ceq_table.csv"
     grid.to_csv(grid_path, index=False)
@@ -101,7 +101,7 @@ def test_pidpipe_refine_adds_rounds_stops_on_the_budget_and_resumes(problem, tmp
             "--output-dir", str(out)]
     assert main(argv) == 0
     printed = capsys.readouterr().out
-    table = pd.read_csv(out / "ceq_table.csv")
+    table = pd.read_csv(out / "state" / "ceq_table.csv")
     added = table[table["refine_round"] > 0]
     assert (table["source"] == "refine round 1").sum() >= 1
     assert set(added["source"]) <= {f"refine round {n}" for n in range(1, 7)} | {"verify"}
@@ -117,19 +117,19 @@ def test_pidpipe_refine_adds_rounds_stops_on_the_budget_and_resumes(problem, tmp
         raise AssertionError("the engine ran on a resumed loop")
 
     monkeypatch.setattr("pidpipe.steps.cases.measure_case", no_engine)
-    before = (out / "ceq_table.csv").read_text()
+    before = (out / "state" / "ceq_table.csv").read_text()
     assert main(argv) == 0
     printed = capsys.readouterr().out
-    assert (out / "ceq_table.csv").read_text() == before
-    assert f"stopped: {BUDGET_SPENT}" in printed and "the DEM ran 0 case(s)" in printed
+    assert (out / "state" / "ceq_table.csv").read_text() == before
+    assert f"stopped: {BUDGET_SPENT}" in printed and "the engine ran 0 case(s)" in printed
 
     # killed inside the last round's measure, after its cases had run: the table lacks their
     # rows, the work folder has their records; the rerun reads them and shakes nothing
     last = int(table["refine_round"].max())
-    table[table["refine_round"] < last].to_csv(out / "ceq_table.csv", index=False)
+    table[table["refine_round"] < last].to_csv(out / "state" / "ceq_table.csv", index=False)
     assert main(argv) == 0
     capsys.readouterr()
-    assert pd.read_csv(out / "ceq_table.csv").equals(pd.read_csv(io.StringIO(before)))
+    assert pd.read_csv(out / "state" / "ceq_table.csv").equals(pd.read_csv(io.StringIO(before)))
 
 
 def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(problem, tmp_path):
@@ -137,8 +137,8 @@ def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(pro
     config = load_config(config_path)
     points = [Request(750.0, 7.5, 25.0, "verify"), Request(750.0, 7.5, 50.0, "verify"),
               Request(600.0, 6.0, 25.0, "verify")]
-    serial = DemEngine.from_config(config, tmp_path / "serial")
-    parallel = DemEngine.from_config(config, tmp_path / "parallel", cores=2)
+    serial = CaseEngine.from_config(config, tmp_path / "serial")
+    parallel = CaseEngine.from_config(config, tmp_path / "parallel", cores=2)
     one, two = serial.verify(points), parallel.verify(points)
     assert sorted(parallel.runs) == sorted(serial.runs) and len(parallel.runs) == 3
     assert parallel.measured["shake_cpu_s"] > 0

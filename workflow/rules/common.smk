@@ -11,7 +11,8 @@ from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_
                                   dem_batch_priority, fill_params, host_params, inspected_cases,
                                   m_eff_figure_paths, m_eff_surrogate_paths,
                                   map_uncertainty_params, phase_figure_targets,
-                                  pour_batch_fill_pattern, pour_batch_replicates, scene_params,
+                                  pour_batch_fill_pattern, pour_batch_replicates,
+                                  refine_params, scene_params,
                                   validation_packing_ids, verify_case_config, workflow_settings)
 from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
@@ -20,10 +21,13 @@ from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
 from pidpipe.config.panel import panel_params
+from pidpipe.config.refine import RefineSettings
+from pidpipe.steps.refine import read_step
 
 
 try:
     SETTINGS = workflow_settings(config)
+    REFINE = RefineSettings.from_config(config)
 except ConfigError as error:
     sys.exit(f"pidpipe: invalid config: {error}")
 CASES = campaign_cases(config)
@@ -175,8 +179,42 @@ def get_surrogate_allow_holes():
 
 
 def get_ceq_table():
-    """The table the surrogate is fitted to: optimisation.external_ceq_table, else the campaign's."""
-    return ceq_table_path(SETTINGS.optimisation)
+    """The table the surrogate is fitted to: optimisation.external_ceq_table, else the
+    refinement loop's (refine.enabled), else the campaign's."""
+    return ceq_table_path(SETTINGS.optimisation, refining())
+
+
+def refining():
+    """Whether the campaign runs the refinement loop (refine.enabled, no external table)."""
+    return REFINE.enabled and SETTINGS.optimisation.external_ceq_table is None
+
+
+def get_refine_params():
+    """What the loop's steps and runs depend on (their scripts read the whole config)."""
+    return refine_params(config)
+
+
+def get_refine_step_inputs(wildcards):
+    """Step n's inputs: the campaign's table, and for n > 1 step n - 1's file and the records
+    of the runs it named (Snakemake runs them first)."""
+    step = int(wildcards.step)
+    if step == 1:
+        return {"table": "results/ceq_table.csv"}
+    previous = checkpoints.refine_step.get(step=step - 1).output.step
+    runs = read_step(previous).get("runs", [])
+    return {"table": "results/ceq_table.csv", "previous": previous,
+            "records": [f"results/refine/work/cases/{run}.json" for run in runs]}
+
+
+def get_refine_last_step(wildcards):
+    """The step at which the loop stopped: steps are asked for one after another (each a
+    checkpoint) until one says done."""
+    step = 1
+    while True:
+        path = checkpoints.refine_step.get(step=step).output.step
+        if read_step(path)["status"] == "done":
+            return path
+        step += 1
 
 
 def get_m_eff_surrogate():
@@ -222,6 +260,8 @@ def get_final_targets():
         "results/figures/optimum_spread.png",
     ]
     targets += get_m_eff_surrogate() + get_m_eff_figures()
+    if refining():
+        targets += ["results/refine/rounds.csv", "results/refine/convergence.png"]
     if SETTINGS.optimisation.external_ceq_table is None:
         targets = get_case_records() + ["results/ceq_table.csv"] + targets + get_phase_figures()
     return targets

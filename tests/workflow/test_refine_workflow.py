@@ -1,0 +1,135 @@
+"""The campaign with the refinement loop (``refine.enabled``) on the reduced grid, shaken by
+the compiled DEM: the loop runs as Snakemake steps (checkpoints) and jobs, the designs rest on
+its table, and a campaign killed between or within rounds resumes with only the missing runs.
+
+The loop's criterion (1 %) cannot be met in its 3 rounds: it stops at ``refine.max_rounds``,
+having run a few cases of 1 cell x 10 cycles (a minute or two on 2 cores)."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from tests._snakemake import WORKFLOW_MARKS, planned_jobs, snakemake, write_config
+
+pytestmark = WORKFLOW_MARKS
+
+REFINE = {"enabled": True, "interval_fraction": 0.01, "max_cpu_s": 15.0, "cases_per_round": 2,
+          "max_rounds": 3}
+
+
+def _config(workdir) -> None:
+    write_config(workdir, engine="dem", fidelity={"pour_engine": "dem"},
+                 surrogate={"method": "gp", "allow_holes": True}, refine=REFINE)
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    workdir = tmp_path_factory.mktemp("refine_campaign")
+    _config(workdir)
+    run = snakemake(workdir)
+    assert run.returncode == 0, run.stdout[-5000:]
+    return workdir
+
+
+#: Columns that differ between two runs of one plan (the machine's timings).
+TIMINGS = ["wall_time_s", "solver_wall_time_s", "liggghts_wall_time_s", "engine_cpu_s"]
+
+
+def _loop_table(workdir) -> pd.DataFrame:
+    """The loop's table without the runs' timings."""
+    table = pd.read_csv(workdir / "results" / "refine" / "state" / "ceq_table.csv")
+    return table.drop(columns=[c for c in TIMINGS if c in table.columns])
+
+
+def _kill_after(workdir, step: int) -> None:
+    """The campaign's files as a kill after the loop's ``step`` leaves them: no later step, and
+    none of the finished loop's outputs."""
+    results = workdir / "results"
+    for path in (results / "refine" / "steps").glob("*.json"):
+        if int(path.stem) > step:
+            path.unlink()
+    for name in ("ceq_table_refined.csv", "refine/rounds.csv", "refine/summary.json",
+                 "refine/convergence.png", "refine/convergence.pdf"):
+        (results / name).unlink()
+
+
+def _steps(workdir) -> list[dict]:
+    paths = sorted((workdir / "results" / "refine" / "steps").glob("*.json"),
+                   key=lambda p: int(p.stem))
+    return [json.loads(p.read_text()) for p in paths]
+
+
+def test_the_loop_runs_as_steps_and_every_run_it_asked_for_is_in_its_table(campaign):
+    steps = _steps(campaign)
+    assert [s["status"] for s in steps] == ["runs needed"] * (len(steps) - 1) + ["done"]
+    assert steps[-1]["stopped_by"] == "max rounds reached"
+    assert any("wider than +-1 %" in line for line in steps[-1]["open"])
+    asked = [run for step in steps for run in step.get("runs", [])]
+    assert len(asked) == len(set(asked)) >= 2
+    records = {p.stem for p in (campaign / "results" / "refine" / "work" / "cases").glob("*.json")}
+    assert records == set(asked)
+    state = pd.read_csv(campaign / "results" / "refine" / "state" / "ceq_table.csv")
+    used = {part for ids in state["case_id"] for part in str(ids).split(";")}
+    # the loop decided each round the same in every step that asked it: no run was wasted
+    assert set(asked) <= used
+    added = state[state["refine_round"] > 0]
+    assert (added["planned_cpu_s"] > 0).all() and added["planned_cpu_s"].sum() <= 15.0
+    assert set(added["source"]) <= {"refine round 1", "refine round 2"}
+
+
+def test_the_designs_rest_on_the_table_the_loop_fitted_last(campaign):
+    results = campaign / "results"
+    refined = pd.read_csv(results / "ceq_table_refined.csv")
+    grid = pd.read_csv(results / "ceq_table.csv")
+    assert len(refined) >= len(grid) and refined["case_key"].is_unique
+    assert set(refined["source"]) >= {"grid"} and "verify" not in set(refined["source"])
+    assert (refined["source"] != "grid").any()
+    summary = json.loads((results / "refine" / "summary.json").read_text())
+    assert summary["rounds_run"] == [1, 2, 3]
+    rounds = pd.read_csv(results / "refine" / "rounds.csv")
+    assert sorted(set(rounds["round"])) == [1, 2, 3] and len(rounds) == 3 * 3
+    assert (results / "refine" / "convergence.png").stat().st_size > 10_000
+    log = (campaign / "logs" / "fit_surrogate.log").read_text()
+    assert "ceq_table_refined.csv" in log
+    optimum = pd.read_csv(results / "optimum.csv")
+    last = rounds[rounds["round"] == 3].set_index("design")
+    peak = optimum[optimum["design"] == "peak"].iloc[0] if "design" in optimum else optimum.iloc[0]
+    assert peak["fill_pct"] == pytest.approx(last.loc["peak", "fill_pct"], rel=1e-6)
+
+
+def test_a_campaign_killed_within_a_round_reruns_only_the_missing_run(campaign):
+    # killed after one of the last round's runs had finished and before the other had, so
+    # the loop's table lacks the round's rows
+    steps = _steps(campaign)
+    asked_at = max(n for n, s in enumerate(steps, start=1) if s["status"] == "runs needed")
+    runs = steps[asked_at - 1]["runs"]
+    state = campaign / "results" / "refine" / "state" / "ceq_table.csv"
+    before = _loop_table(campaign)
+    table = pd.read_csv(state)
+    theirs = table["case_id"].map(lambda ids: bool(set(str(ids).split(";")) & set(runs)))
+    table[~theirs].to_csv(state, index=False)
+    (campaign / "results" / "refine" / "work" / "cases" / f"{runs[0]}.json").unlink()
+    _kill_after(campaign, asked_at)
+    jobs = planned_jobs(snakemake(campaign, "--dry-run").stdout)
+    assert jobs.get("run_refine_case") == 1
+    run = snakemake(campaign)
+    assert run.returncode == 0, run.stdout[-5000:]
+    # the rerun run is the same plan on the same packings: the deterministic DEM gives the row
+    # it gave
+    pd.testing.assert_frame_equal(_loop_table(campaign), before)
+    assert _steps(campaign)[asked_at - 1]["runs"] == runs
+
+
+def test_a_campaign_killed_between_rounds_runs_no_case_again(campaign):
+    state = campaign / "results" / "refine" / "state" / "ceq_table.csv"
+    before = state.read_text()
+    _kill_after(campaign, 1)
+    run = snakemake(campaign)
+    assert run.returncode == 0, run.stdout[-5000:]
+    assert "run_refine_case" not in run.stdout
+    # the loop's table is ahead of the steps: the second step finds every round's rows
+    assert _steps(campaign)[-1]["status"] == "done"
+    assert state.read_text() == before
