@@ -15,7 +15,9 @@ Run: .venv/bin/python benchmarks/bench_campaign.py [config.yaml] [--cores 2]
          [--workdir DIR]
 
 ``--workdir DIR`` runs the campaign in DIR (created, kept afterwards) instead of a scratch
-folder, so that its results can be used again, e.g. by ``snakemake validate`` in DIR.
+folder, so that its results can be used again, e.g. by ``snakemake validate`` in DIR; the
+figures are also written to DIR/bench_campaign.json (read by ``compare_campaigns.py``). With
+``refine.enabled`` the refinement loop's runs (``results/refine/work/cases``) are counted too.
 """
 
 from __future__ import annotations
@@ -63,6 +65,8 @@ def main() -> None:
                          "job": tsv.stem, "s": float(frame["s"].iloc[0])})
         jobs = pd.DataFrame(rows)
         records = [json.loads(p.read_text()) for p in (work / "results" / "cases").glob("*.json")]
+        refine_records = [json.loads(p.read_text()) for p in
+                          (work / "results" / "refine" / "work" / "cases").glob("*.json")]
         pool = len(list((work / "results" / "packings" / "pool").glob("*rep*.json")))
         if args.keep:
             shutil.copytree(work / "results" / "cases", args.keep, dirs_exist_ok=True)
@@ -79,6 +83,12 @@ def main() -> None:
                "pool_packings": pool,
                "core_use": round(float(jobs["s"].sum()) / (wall * args.cores), 2),
                "cpu_all_processes_s": round(cpu, 1)}
+    if refine_records:
+        refine_cpu = float(sum(case_row(r)["cpu_s"] for r in refine_records))
+        figures.update({"refine_runs": len(refine_records),
+                        "refine_engine_cpu_s": round(refine_cpu, 1),
+                        "engine_cpu_with_refine_s": round(float(counted["cpu_s"].sum())
+                                                          + refine_cpu, 1)})
     lines = [f"Campaign {args.config} {' '.join(args.set)}: {len(records)} cases, wall time "
              f"{wall:.0f} s on {args.cores} cores; engine CPU of the cases {counted['cpu_s'].sum():.0f} s; "
              f"case status counts: {cases['status'].value_counts().to_dict()}; target "
@@ -114,7 +124,14 @@ def main() -> None:
                   f"on {args.cores} busy cores; load average (1, 5, 15 min) before {load_before}, after "
                   f"{load_after} (other sessions share the cores).")
     lines.append(conditions)
+    if refine_records:
+        lines.append(f"The refinement loop ran {len(refine_records)} case(s) beyond the grid: "
+                     f"engine CPU {figures['refine_engine_cpu_s']:.0f} s, so the campaign's engine "
+                     f"CPU is {figures['engine_cpu_with_refine_s']:.0f} s in all.")
     print("\n".join(lines))
+    if args.workdir:
+        # beside the campaign, for benchmarks/compare_campaigns.py
+        (work / "bench_campaign.json").write_text(json.dumps(figures, indent=1) + "\n")
     record("bench_campaign", figures, notes=f"Config {args.config} {' '.join(args.set)}. "
            + conditions)
 

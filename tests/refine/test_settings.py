@@ -22,6 +22,7 @@ def test_refine_defaults_to_ten_percent_intervals(config):
     ("cases_per_round", 2.5, "must be of type integer"),
     ("max_rounds", 0, "must be >= 1"),
     ("budget_s", 10, "'budget_s' under refine is not a known key"),
+    ("enabled", "yes", "must be of type boolean"),
 ])
 def test_a_bad_refine_value_is_refused_in_one_line_naming_the_key(config, key, value, says):
     config["refine"][key] = value

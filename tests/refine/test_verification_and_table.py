@@ -83,3 +83,31 @@ def test_a_round_compares_its_own_first_verifying_runs_and_earlier_reruns():
     table = _table()
     assert verify_rows(table, 1)["action"].tolist() == ["verify"]
     assert verify_rows(table, 2)["action"].tolist() == ["verify", "reverify"]
+
+
+def test_a_table_resumed_on_a_new_grid_keeps_the_loops_rows_after_the_new_grid():
+    from pidpipe.refine.table import start_table, with_grid
+
+    grid = pd.DataFrame({"freq_hz": [500.0, 1000.0], "accel_g": [5.0, 5.0],
+                         "fill_pct": [25.0, 25.0], "ceq_coupon_ns_m": [10.0, 20.0],
+                         "ceq_coupon_sem_ns_m": [1.0, 2.0], "status": ["ok", "ok"]})
+    table = start_table(grid)
+    added = table.iloc[[0]].assign(refine_round=1, source="refine round 1", action="extend",
+                                   ceq_coupon_ns_m=11.0, ceq_coupon_sem_ns_m=0.5)
+    table = pd.concat([table, added], ignore_index=True)
+    assert with_grid(table, grid) is table
+    rerun = grid.assign(ceq_coupon_ns_m=[12.0, 20.0])
+    resumed = with_grid(table, rerun)
+    assert resumed["ceq_coupon_ns_m"].tolist() == [12.0, 20.0, 11.0]
+    assert resumed["refine_round"].tolist() == [0, 0, 1]
+
+
+def test_the_table_a_round_decides_from_is_the_table_as_it_reads_back():
+    from pidpipe.refine.table import as_stored, start_table
+
+    grid = pd.DataFrame({"freq_hz": [500.0], "accel_g": [5.0], "fill_pct": [25.0],
+                         "ceq_coupon_ns_m": [10.0], "ceq_coupon_sem_ns_m": [1.0],
+                         "status": ["ok"], "flags": [None], "n_cycles": [40]})
+    stored = as_stored(start_table(grid))
+    assert stored["flags"].isna().all() and stored["n_cycles"].dtype.kind == "i"
+    assert as_stored(stored).equals(stored)
