@@ -1,9 +1,10 @@
 # pidpipe campaign: pour packings -> check them all -> shake every case in LIGGGHTS ->
-# C_eq table -> surrogate (+ cross-validation) -> SLSQP optimum per environment -> figures.
+# C_eq table -> (refine.enabled: the design-driven refinement loop, in checkpoint steps) ->
+# surrogate (+ cross-validation) -> SLSQP optimum per environment -> figures.
 #
 #   snakemake --cores 2                                  # the campaign of config.yaml
 #   snakemake --cores 2 --configfile .test/config.yaml   # the reduced CI campaign
-#   snakemake table | surrogate | optimum | figures      # stop after a stage
+#   snakemake table | refine | surrogate | optimum | figures   # stop after a stage
 #   snakemake --report report.html                       # figures and tables with captions
 #   snakemake --cores 2 validate                         # every case checked by the compiled DEM (grid.csv)
 #   snakemake --cores 2 validate_chosen                  # validation.cases afresh in LIGGGHTS and the DEM

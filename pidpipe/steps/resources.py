@@ -83,3 +83,14 @@ def case_runtime_min(settings: ShakeSettings, case: CaseSpec, attempt: int = 1) 
     if attempt < 1:
         raise ValueError(f"attempt must be at least 1, got {attempt}")
     return max(1, math.ceil(case_wall_time_s(settings, case) * MARGIN * attempt / 60.0))
+
+
+def refine_run_runtime_min(planned_cpu_s: float, attempt: int = 1) -> int:
+    """The time limit of a refinement run's job, whole minutes: (SETUP_S + the planned engine
+    CPU of its plan, s, pours included) x MARGIN x attempt (:meth:`pidpipe.steps.refine_engine.
+    CaseEngine.plan_cpu_s`; a job runs one plan on one core, so its CPU is its wall time)."""
+    if attempt < 1:
+        raise ValueError(f"attempt must be at least 1, got {attempt}")
+    if not math.isfinite(planned_cpu_s) or planned_cpu_s < 0:
+        raise ValueError(f"planned CPU must be a finite number >= 0 s, got {planned_cpu_s!r}")
+    return max(1, math.ceil((SETUP_S + planned_cpu_s) * MARGIN * attempt / 60.0))

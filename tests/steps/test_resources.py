@@ -50,3 +50,15 @@ def test_runtime_is_at_least_a_minute_and_attempt_must_be_positive(config):
     assert cr.case_runtime_min(ShakeSettings.from_config(config), CaseSpec(1000.0, 5.0, 25.0)) == 1
     with pytest.raises(ValueError, match="attempt"):
         cr.case_runtime_min(ShakeSettings.from_config(config), CASE, attempt=0)
+
+
+def test_a_refinement_run_gets_its_planned_cpu_with_margin_and_longer_on_a_retry():
+    from pidpipe.steps.resources import MARGIN, SETUP_S, refine_run_runtime_min
+
+    assert refine_run_runtime_min(0.0) == 1
+    planned = 600.0
+    first = refine_run_runtime_min(planned)
+    assert first == math.ceil((SETUP_S + planned) * MARGIN / 60.0)
+    assert refine_run_runtime_min(planned, attempt=2) > first
+    with pytest.raises(ValueError):
+        refine_run_runtime_min(float("nan"))

@@ -206,6 +206,17 @@ def get_refine_step_inputs(wildcards):
             "records": [f"results/refine/work/cases/{run}.json" for run in runs]}
 
 
+def get_refine_run_runtime_min(wildcards, attempt):
+    """The time limit of a run_refine_case job, minutes: its plan's planned CPU
+    (pidpipe.steps.resources.refine_run_runtime_min); the plan is there once the step that
+    asked for the run has finished, before the job is scheduled."""
+    from pidpipe.steps.refine_engine import CaseEngine, Plan
+
+    engine = CaseEngine.from_config(config, "results/refine/work")
+    planned = engine.plan_cpu_s(Plan.read(engine.plan_path(wildcards.run)))
+    return cluster_resources.refine_run_runtime_min(planned, attempt)
+
+
 def get_refine_last_step(wildcards):
     """The step at which the loop stopped: steps are asked for one after another (each a
     checkpoint) until one says done."""

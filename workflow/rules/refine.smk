@@ -33,6 +33,8 @@ rule run_refine_case:
     benchmark:
         "results/benchmarks/refine/cases/{run}.tsv"
     threads: 1
+    resources:
+        runtime=get_refine_run_runtime_min,
     script:
         "../scripts/run_refine_case.py"
 
