@@ -1,6 +1,7 @@
 # The panel's modal stage (not part of `all`): the config's simply supported sandwich plate, its
 # modes with the core's transverse shear, and on each mode in an environment's band the
-# source-style and the optimised layouts of the particles with their added loss factors.
+# source-style and the optimised layouts of the particles with their added loss factors; the modal
+# mass takes the particles' m_eff from results/surrogate_m_eff.json when the table has m_eff.
 #   snakemake --cores 2 panel
 # It refits the surrogate's bootstrap draws and reruns the coupon designs: about a minute.
 
@@ -8,6 +9,7 @@
 rule design_panel:
     input:
         surrogate="results/surrogate.json",
+        m_eff_surrogate=get_m_eff_surrogate(),
     output:
         modes="results/panel/modes.csv",
         layout="results/panel/layout.csv",
