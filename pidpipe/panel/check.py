@@ -24,20 +24,25 @@ the spheres' force as m_eff and c_eff, steadiness and the energy balance. The pa
 (:func:`pidpipe.panel.response.response_curve`) is swept at the same frequencies: ``panel``
 with the stage's modal mass (the m_eff surrogate's when given, else the bed's mass) and
 ``panel_full_mass`` with the beds' whole mass. Each curve's peak (:mod:`pidpipe.loop.compare`)
-gives the comparison: peak frequency, amplitude and loss factor.
+gives the comparison: peak frequency, amplitude and loss factor. Where the panel model has
+several consistent amplitudes (C_eq falling with G makes the response fold) it takes the
+largest, and the coupled host may settle on another branch; so the panel model's dashpot is also
+read in each coupled state (its f and G: ``panel_ceq_ns_m``, ``panel_particle_loss_factor``),
+which compares the C_eq model with the DEM branch for branch.
 """
 
 from __future__ import annotations
 
 import math
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 
 from pidpipe.loop.compare import peak_with_uncertainty, redraw, relative_difference
 from pidpipe.panel.loss import Layout, ModalLoss
+from pidpipe.panel.mass import SurrogateEffectiveMass
 from pidpipe.panel.response import response_curve
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
@@ -269,6 +274,12 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                    block_cycles=int(block_cycles))
     starts = [row["amplitude"] for row in model_rows["panel"]]
     coupled = coupled_sweep(scene, packings, run, freqs, starts, workers)
+    for row in coupled:        # the panel model's dashpot in the coupled state (same f and G)
+        c_p = float(loss.damping_ns_m(predict, represented, np.array([row["accel_g"]]),
+                                      freq_hz=row["freq_hz"])[0])
+        row["panel_ceq_ns_m"] = c_p
+        row["panel_particle_loss_factor"] = c_p * 2.0 * math.pi * row["freq_hz"] / stiffness
+        row["panel_m_eff_kg"] = _state_mass(loss, represented, row["freq_hz"], row["accel_g"])
     curves = _curves(coupled, model_rows)
     summary = _summary(curves, seed)
     meta = {"mode": {"m": mode.m, "n": mode.n, "freq_hz": mode.freq_hz,
@@ -290,8 +301,18 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
     return ModeCheck(curves=curves, summary=summary, meta=meta)
 
 
+def _state_mass(loss: ModalLoss, layout: Layout, freq_hz: float, accel_g: float) -> float:
+    """The panel model's sum m_eff,i phi_i^2 (kg) with the m_eff surrogate read at (f, G) of a
+    coupled state; the stage's (fixed) one when its mass is not the surrogate's."""
+    mass = loss.effective_mass_kg
+    if isinstance(mass, SurrogateEffectiveMass):
+        loss = replace(loss, effective_mass_kg=replace(mass, freq_hz=freq_hz, accel_g=accel_g))
+    return loss.modal_mass_kg(layout) - loss.mode.modal_mass_kg
+
+
 def _curves(coupled: list[dict], model_rows: dict) -> pd.DataFrame:
-    rows = [{"model": "coupled", **{k: v for k, v in row.items() if k != "force_n"}} for row in coupled]
+    rows = [{"model": "coupled", **{k: v for k, v in row.items() if k != "force_n"}, "n_solutions": 1}
+            for row in coupled]
     for model, curve in model_rows.items():
         rows += [{"model": model, **{k: v for k, v in row.items() if k != "amplitude"},
                   "steady": True} for row in curve]
@@ -313,8 +334,16 @@ def _summary(curves: pd.DataFrame, seed: int) -> pd.DataFrame:
                "peak_accel_g": peak["peak_amplitude_m"] * omega**2 / STANDARD_GRAVITY_M_S2,
                "peak_particle_loss_factor": float(np.interp(peak["peak_freq_hz"], f,
                                                             curve.particle_loss_factor)),
-               "all_steady": bool(curve.steady.all())}
+               "all_steady": bool(curve.steady.all()),
+               "max_solutions": int(curve.n_solutions.max()) if "n_solutions" in curve else 1}
         if reference is None:
+            # the panel model's particle loss factor in the coupled peak's state (f and G)
+            panel = float(np.interp(peak["peak_freq_hz"], f, curve.panel_particle_loss_factor))
+            row.update(panel_particle_loss_factor=panel,
+                       particle_loss_factor_rel_diff=panel / row["peak_particle_loss_factor"] - 1.0,
+                       m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f, curve.m_eff_kg)),
+                       panel_m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f,
+                                                              curve.panel_m_eff_kg)))
             reference = row
         else:
             amp = relative_difference(row["peak_amplitude_m"], row["peak_amplitude_m_sd"],
@@ -338,9 +367,15 @@ def summary_lines(summary: pd.DataFrame) -> list[str]:
         sd = row.peak_loss_factor_sd
         if np.isfinite(sd):
             text += f" +- {sd:.2g}"
-        if row.model != "coupled":
+        if row.model == "coupled":
+            text += (f"; m_eff {row.m_eff_at_peak_kg * 1e3:.4g} g; the panel model in this state "
+                     f"(f, G): particles' loss factor {row.panel_particle_loss_factor:.4g} "
+                     f"({row.particle_loss_factor_rel_diff:+.1%}), m_eff {row.panel_m_eff_at_peak_kg * 1e3:.4g} g")
+        else:
             text += (f"; vs coupled: peak {row.peak_shift_hz:+.2f} Hz, amplitude "
                      f"{row.amplitude_rel_diff:+.1%}, loss factor {row.loss_factor_rel_diff:+.1%}")
+            if row.max_solutions > 1:
+                text += f" ({row.max_solutions} consistent amplitudes at some frequency: the largest taken)"
         if row.peak_at_edge:
             text += " (peak at the sweep's edge)"
         lines.append(text)

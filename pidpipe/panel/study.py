@@ -131,7 +131,7 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
         sources = {kind: optimise_design(surrogate, env, budget, kind, search).design for kind in KINDS}
         for mode in in_band:
             phi = mode.shape(centres[:, 0], centres[:, 1])
-            mass, mass_source = _effective_mass(settings, env, mode, effective_mass_kg, m_eff_surrogate)
+            mass, mass_source = effective_mass_model(settings, env, mode, effective_mass_kg, m_eff_surrogate)
             logger.info("environment %r, mode (%d, %d): the modal mass takes the %s", env.name,
                         mode.m, mode.n, mass_source)
             loss = ModalLoss(mode, phi, n_cells_coupon, settings.full_cell_spheres,
@@ -165,7 +165,7 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                       optimisation_s=optimisation_s, figure_layouts=figure)
 
 
-def _effective_mass(settings: PanelSettings, env, mode: Mode, effective_mass_kg, m_eff_surrogate):
+def effective_mass_model(settings: PanelSettings, env, mode: Mode, effective_mass_kg, m_eff_surrogate):
     """The cells' m_eff model on one mode and its description (``modal_mass_source``)."""
     if m_eff_surrogate is not None:
         mass = SurrogateEffectiveMass(m_eff_surrogate, mode.freq_hz, 0.5 * (env.accel_g[0] + env.accel_g[1]),

@@ -32,3 +32,41 @@ rule design_panel:
 rule panel:
     input:
         rules.design_panel.output,
+
+
+# The DEM check of a mode (not part of `all`): the mode of panel.check's environment as a host
+# carrying compiled-DEM cells of the checked layout in groups along the mode shape, coupled two
+# ways and swept in frequency at one modal force, against the panel model (pidpipe.panel.check).
+#   snakemake --cores 2 panel_check
+# It pours groups x cells_per_group packings (results/work/panel/packings, reused) and runs
+# freq_points coupled runs, two at a time with --cores 2.
+
+from pidpipe.config.panel import panel_check_params
+
+
+rule check_panel_mode:
+    input:
+        surrogate="results/surrogate.json",
+        m_eff_surrogate=get_m_eff_surrogate(),
+        layout="results/panel/layout.csv",
+    output:
+        curves=report("results/panel/check/curves.csv", caption="../report/panel_check.rst",
+                      category="10. Panel"),
+        summary=report("results/panel/check/summary.csv", caption="../report/panel_check.rst",
+                       category="10. Panel"),
+        meta="results/panel/check/check.json",
+    params:
+        config=panel_check_params(config),
+        folder="results/work/panel/packings",
+    log:
+        "logs/check_panel_mode.log",
+    benchmark:
+        "results/benchmarks/check_panel_mode.tsv"
+    threads: 2
+    script:
+        "../scripts/check_panel_mode.py"
+
+
+rule panel_check:
+    input:
+        rules.check_panel_mode.output,
