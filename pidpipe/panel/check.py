@@ -23,8 +23,10 @@ the antinode's G, the loss factor eta = (D_h + sum S D_p) / (pi k |q|^2) and its
 the spheres' force as m_eff and c_eff, steadiness and the energy balance. The panel model
 (:func:`pidpipe.panel.response.response_curve`) is swept at the same frequencies: ``panel``
 with the stage's modal mass (the m_eff surrogate's when given, else the bed's mass) and
-``panel_full_mass`` with the beds' whole mass. Each curve's peak (:mod:`pidpipe.loop.compare`)
-gives the comparison: peak frequency, amplitude and loss factor. Where the panel model has
+``panel_full_mass`` with the beds' whole mass, and, with the m_eff surrogate,
+``panel_mass_at_g`` with its mass read at each amplitude's G (not at the band's middle). Each
+curve's peak (:mod:`pidpipe.loop.compare`) gives the comparison: peak frequency, amplitude and
+loss factor. Where the panel model has
 several consistent amplitudes (C_eq falling with G makes the response fold) it takes the
 largest, and the coupled host may settle on another branch; so the panel model's dashpot is also
 read in each coupled state (its f and G: ``panel_ceq_ns_m``, ``panel_particle_loss_factor``),
@@ -35,7 +37,7 @@ from __future__ import annotations
 
 import math
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -46,8 +48,8 @@ from pidpipe.panel.mass import SurrogateEffectiveMass
 from pidpipe.panel.response import response_curve
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
-#: The curves, in table order.
-MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass")
+#: The curves, in table order (``panel_mass_at_g`` only with the m_eff surrogate).
+MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass", "panel_mass_at_g")
 #: Redraws of the coupled curve within its standard errors, for its peak's uncertainty.
 PEAK_DRAWS = 200
 
@@ -262,6 +264,9 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
     model_rows = {"panel": response_curve(loss, predict, represented, force_n, damping_ratio, freqs),
                   "panel_full_mass": response_curve(full_mass, predict, represented, force_n,
                                                     damping_ratio, freqs)}
+    if isinstance(loss.effective_mass_kg, SurrogateEffectiveMass):
+        model_rows["panel_mass_at_g"] = response_curve(loss, predict, represented, force_n,
+                                                       damping_ratio, freqs, mass_follows_accel=True)
     k = int(packings.shape[0])
     if k != groups.cells.size * cells_per_group:
         raise ValueError(f"{k} packings for {groups.cells.size} groups x {cells_per_group} cells")
@@ -279,7 +284,8 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                                       freq_hz=row["freq_hz"])[0])
         row["panel_ceq_ns_m"] = c_p
         row["panel_particle_loss_factor"] = c_p * 2.0 * math.pi * row["freq_hz"] / stiffness
-        row["panel_m_eff_kg"] = _state_mass(loss, represented, row["freq_hz"], row["accel_g"])
+        row["panel_m_eff_kg"] = float(loss.state_added_mass_kg(represented, row["accel_g"],
+                                                               row["freq_hz"])[0])
     curves = _curves(coupled, model_rows)
     summary = _summary(curves, seed)
     meta = {"mode": {"m": mode.m, "n": mode.n, "freq_hz": mode.freq_hz,
@@ -301,15 +307,6 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
     return ModeCheck(curves=curves, summary=summary, meta=meta)
 
 
-def _state_mass(loss: ModalLoss, layout: Layout, freq_hz: float, accel_g: float) -> float:
-    """The panel model's sum m_eff,i phi_i^2 (kg) with the m_eff surrogate read at (f, G) of a
-    coupled state; the stage's (fixed) one when its mass is not the surrogate's."""
-    mass = loss.effective_mass_kg
-    if isinstance(mass, SurrogateEffectiveMass):
-        loss = replace(loss, effective_mass_kg=replace(mass, freq_hz=freq_hz, accel_g=accel_g))
-    return loss.modal_mass_kg(layout) - loss.mode.modal_mass_kg
-
-
 def _curves(coupled: list[dict], model_rows: dict) -> pd.DataFrame:
     rows = [{"model": "coupled", **{k: v for k, v in row.items() if k != "force_n"}, "n_solutions": 1}
             for row in coupled]
@@ -323,6 +320,8 @@ def _summary(curves: pd.DataFrame, seed: int) -> pd.DataFrame:
     rows, reference = [], None
     for model in MODELS:
         curve = curves[curves.model == model]
+        if curve.empty:
+            continue
         f = curve.freq_hz.to_numpy()
         draws = (None, None)
         if model == "coupled":

@@ -121,6 +121,19 @@ class ModalLoss:
         phi = self.phi[layout.cells]
         return self.mode.modal_mass_kg + float(np.sum(self.cell_effective_mass_kg(layout.fill_pct, phi) * phi**2))
 
+    def state_added_mass_kg(self, layout: Layout, accel_g, freq_hz: float) -> np.ndarray:
+        """sum_i m_eff,i phi_i^2 (kg) at antinode accelerations G (shape (m,)) and frequency f:
+        read at each G when the effective mass is the m_eff surrogate's
+        (:class:`pidpipe.panel.mass.SurrogateEffectiveMass`), else the layout's fixed one."""
+        from pidpipe.panel.mass import SurrogateEffectiveMass
+
+        accel = np.atleast_1d(np.asarray(accel_g, dtype=float))
+        mass = self.effective_mass_kg
+        if not isinstance(mass, SurrogateEffectiveMass) or layout.cells.size == 0:
+            return np.full(accel.shape, self.modal_mass_kg(layout) - self.mode.modal_mass_kg)
+        levels, fills, weights = self._binned(layout)
+        return mass.projected_kg(fills, self.spheres(fills), levels, weights, accel, freq_hz)
+
     def frequency_hz(self, layout: Layout) -> float:
         """The loaded mode's frequency f_0 sqrt(M_plate / M), Hz."""
         return self.mode.freq_hz * math.sqrt(self.mode.modal_mass_kg / self.modal_mass_kg(layout))

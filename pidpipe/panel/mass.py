@@ -72,6 +72,29 @@ class SurrogateEffectiveMass:
                                                  np.clip(fills, *domain["fill_pct"])), dtype=float)
         return np.where(resting, spheres * self.sphere_mass_kg, read.reshape(g.shape))
 
+    def projected_kg(self, fill_pct, spheres, phi_abs, phi2, accel_g, freq_hz: float) -> np.ndarray:
+        """sum_k m_eff(f, G |phi_k|, r_k) w_k at antinode accelerations G, kg, shape (m,).
+
+        Parameters
+        ----------
+        fill_pct, spheres, phi_abs, phi2 : array_like, shape (k,)
+            Per cell (or bin of cells): fill %, spheres per cell, |phi|, and the weight w_k (the
+            cell's phi^2, or a bin's sum of phi^2).
+        accel_g : array_like, shape (m,)
+            G at the antinode, g.
+        freq_hz : float
+        """
+        fills, spheres, phi, weights = (np.asarray(v, dtype=float) for v in (fill_pct, spheres, phi_abs, phi2))
+        g = np.atleast_1d(np.asarray(accel_g, dtype=float))[:, None] * np.abs(phi)[None, :]
+        domain = self.surrogate.domain
+        f = float(np.clip(freq_hz, *domain["freq_hz"]))
+        read = np.asarray(self.surrogate.predict(
+            np.full(g.shape, f), np.clip(g, *domain["accel_g"]),
+            np.broadcast_to(np.clip(fills, *domain["fill_pct"])[None, :], g.shape)), dtype=float)
+        mass = np.where(g < domain["accel_g"][0], (spheres * self.sphere_mass_kg)[None, :],
+                        read.reshape(g.shape))
+        return mass @ weights
+
     def describe(self) -> str:
         """How the mass is read, for logs and designs.csv."""
         return (f"{SURROGATE_MASS} at {self.freq_hz:.4g} Hz and G {self.accel_g:.3g} g x |phi| "

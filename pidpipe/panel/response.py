@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from pidpipe.loop.equivalent import solve_point
+from pidpipe.loop.equivalent import solve_mass_point, solve_point
 from pidpipe.panel.loss import Layout, ModalLoss
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
@@ -82,12 +82,14 @@ def forced_response(loss: ModalLoss, predict: Callable, layout: Layout, force_n:
 
 
 def response_curve(loss: ModalLoss, predict: Callable, layout: Layout, force_n: float,
-                   damping_ratio: float, freqs_hz) -> list[dict]:
+                   damping_ratio: float, freqs_hz, mass_follows_accel: bool = False) -> list[dict]:
     """The layout's consistent steady state at modal force ``force_n`` (N) swept over ``freqs_hz``.
 
     The same single-degree-of-freedom mode as :func:`forced_response` (loaded modal mass M,
     stiffness omega_0^2 M_plate, structural damping c_s), forced at each frequency Omega instead of
-    at the loaded mode's; the cells' C_eq is read at Omega.
+    at the loaded mode's; the cells' C_eq is read at Omega. With ``mass_follows_accel`` the
+    particles' share of M is read at each amplitude's G too (:meth:`ModalLoss.state_added_mass_kg`,
+    solved to consistency in both, :func:`pidpipe.loop.equivalent.solve_mass_point`).
 
     Returns
     -------
@@ -108,14 +110,23 @@ def response_curve(loss: ModalLoss, predict: Callable, layout: Layout, force_n: 
             accel = np.asarray(accel_g, dtype=float)
             return loss.damping_ns_m(predict, layout, accel, freq_hz=freq).reshape(accel.shape)
 
-        point = solve_point(float(freq), force_n, mass, stiffness, structural, model)
+        if mass_follows_accel:
+            def both(freq_hz, accel_g, model=model, freq=float(freq)):
+                return loss.state_added_mass_kg(layout, accel_g, freq), model(freq_hz, accel_g)
+
+            point = solve_mass_point(float(freq), force_n, mode.modal_mass_kg, stiffness, structural,
+                                     both)
+            state_mass = mode.modal_mass_kg + point.added_mass_kg
+        else:
+            point = solve_point(float(freq), force_n, mass, stiffness, structural, model)
+            state_mass = mass
         omega = 2.0 * math.pi * freq
         rows.append({"freq_hz": float(freq), "amplitude": point.amplitude,
                      "amplitude_m": abs(point.amplitude), "accel_g": point.accel_g,
                      "ceq_ns_m": point.ceq_ns_m,
                      "loss_factor": (structural + point.ceq_ns_m) * omega / stiffness,
                      "particle_loss_factor": point.ceq_ns_m * omega / stiffness,
-                     "modal_mass_kg": mass, "n_solutions": point.n_solutions,
+                     "modal_mass_kg": state_mass, "n_solutions": point.n_solutions,
                      "clipped_cells": loss.clipped_cells(layout, point.accel_g)})
     return rows
 

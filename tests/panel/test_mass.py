@@ -15,7 +15,8 @@ from pidpipe.errors import TableError
 from pidpipe.panel.layout import antinode_layout
 from pidpipe.panel.loss import ModalLoss
 from pidpipe.panel.mass import SurrogateEffectiveMass, check_m_eff_surrogate
-from pidpipe.physics.contact import sphere_mass
+from pidpipe.panel.response import response_curve
+from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2, sphere_mass
 from pidpipe.steps.panel import panel_m_eff_surrogate
 from tests.design.test_optimise_command import write_config, write_table
 from tests.panel.test_layout import DOMAIN, N_COUPON, SPHERE_KG, mode_loss
@@ -124,3 +125,30 @@ def test_the_panel_command_uses_the_tables_m_eff_and_says_so(tmp_path, capsys):
         assert -0.1 * whole < row.modal_mass_kg - plate < 0.5 * whole
     assert main(["panel", "--table", str(table_path), "--config", str(config), "--output-dir",
                  str(out), "--m-eff-surrogate", str(tmp_path / "none.json")]) != 0
+
+
+def test_a_mass_that_follows_the_response_rides_at_low_force_and_flies_at_high():
+    """With the mass read at each amplitude's G, the swept mode peaks at the fully loaded
+    frequency when the beds stay below 1 g and at the bare one when they fly above 3 g, whatever
+    the G the stage reads it at (here 5 g: all flying)."""
+    full, _ = mode_loss()
+    layout = antinode_layout(full.phi, 500, 50.0)
+    stage = loss_with(SurrogateEffectiveMass(Airborne(), full.mode.freq_hz, 5.0, SPHERE_KG))
+
+    def small(f, g, r):                      # a dashpot only above 1 g, 1 % of the structure's
+        return np.where(np.asarray(g) < 1.0, 0.0, 0.05) * np.ones_like(np.asarray(f, dtype=float))
+
+    loaded, bare = full.frequency_hz(layout), full.mode.freq_hz
+    freqs = np.linspace(0.97 * loaded, 1.03 * bare, 241)
+    zeta = 0.01
+    omega = 2 * np.pi * loaded
+    structural = 2 * zeta * np.sqrt(full.mode.stiffness_n_m * full.mode.modal_mass_kg)
+    for accel, expected in ((0.5, loaded), (8.0, bare)):
+        force = accel * STANDARD_GRAVITY_M_S2 / omega * structural
+        rows = response_curve(stage, small, layout, force, zeta, freqs, mass_follows_accel=True)
+        peak = max(rows, key=lambda row: row["amplitude_m"])
+        assert peak["freq_hz"] == pytest.approx(expected, rel=2e-3)
+        fixed = max(response_curve(stage, small, layout, force, zeta, freqs),
+                    key=lambda row: row["amplitude_m"])
+        assert fixed["freq_hz"] == pytest.approx(bare, rel=2e-3)     # the stage's mass: none
+    assert loaded < 0.95 * bare
