@@ -92,6 +92,10 @@ def _parser() -> argparse.ArgumentParser:
                        help="config file (default: config.yaml)")
     panel.add_argument("--output-dir", type=Path, default=Path("results/panel"),
                        help="folder of the outputs (default: results/panel)")
+    panel.add_argument("--m-eff-surrogate", type=Path,
+                       help="m_eff surrogate (JSON, e.g. results/surrogate_m_eff.json) whose "
+                            "effective mass the modal mass takes; default: fitted to the table "
+                            "when it has m_eff_cell_kg, else the bed's mass")
     refine = commands.add_parser(
         "refine", help="run or resume the design-driven refinement loop on the config's engine",
         description="From a C_eq table, in rounds: fit the GP surrogate, optimise the designs, "
@@ -343,11 +347,39 @@ def panel_command(args: argparse.Namespace) -> int:
         raise PidpipeError(f"{args.config}: no environments to design for (config key environments)")
     surrogate = _table_surrogate(args.table, settings)
     print(f"pidpipe: {surrogate.describe()}", file=sys.stderr, flush=True)
-    study = panel_study_from_config(config, surrogate)
+    m_eff = _panel_m_eff(args, settings, surrogate)
+    study = panel_study_from_config(config, surrogate, m_eff)
     write_panel_study(study, args.output_dir)
     print(format_panel(study))
     print(f"wrote {args.output_dir}/modes.csv, layout.csv, designs.csv, response.csv, panel.png")
     return 0
+
+
+def _panel_m_eff(args: argparse.Namespace, settings, surrogate):
+    """The m_eff surrogate of ``pidpipe panel``: --m-eff-surrogate (checked against the table's
+    C_eq surrogate), else the GP of the table's m_eff_cell_kg, else None (the bed's mass); the
+    choice printed in one line."""
+    from pidpipe.design.ceq_table import M_EFF_COLUMN, M_EFF_SEM_COLUMN, read_ceq_table
+    from pidpipe.design.surrogate import fit_surrogate
+    from pidpipe.steps.panel import panel_m_eff_surrogate
+
+    if args.m_eff_surrogate is not None:
+        if not args.m_eff_surrogate.is_file():
+            raise PidpipeError(f"--m-eff-surrogate {args.m_eff_surrogate}: no such file")
+        m_eff = panel_m_eff_surrogate(args.m_eff_surrogate, surrogate)
+        print(f"pidpipe: modal mass with the m_eff of {args.m_eff_surrogate}", file=sys.stderr)
+        return m_eff
+    path = args.table or Path(settings.optimisation.external_ceq_table or "results/ceq_table.csv")
+    table = read_ceq_table(path)
+    if M_EFF_COLUMN not in table.columns or not table[M_EFF_COLUMN].notna().any():
+        print(f"pidpipe: {path} has no {M_EFF_COLUMN}: the modal mass takes the bed's mass x "
+              f"panel.effective_mass_fraction", file=sys.stderr)
+        return None
+    m_eff = fit_surrogate(table, method="gp", target="linear", source=str(path),
+                          allow_holes=settings.surrogate.allow_holes, value_column=M_EFF_COLUMN,
+                          sem_column=M_EFF_SEM_COLUMN)
+    print(f"pidpipe: modal mass with the table's m_eff: {m_eff.describe()}", file=sys.stderr)
+    return m_eff
 
 
 def format_panel(study) -> str:
@@ -357,6 +389,8 @@ def format_panel(study) -> str:
              + ", ".join(f"({m.m},{m.n}) {m.freq_hz:.1f} Hz" for m in study.modes)]
     if study.designs.empty or "layout" not in study.designs:
         return "\n".join(lines + ["no mode lies in any environment's band"])
+    if "modal_mass_source" in study.designs:
+        lines += [f"  modal mass: {source}" for source in study.designs["modal_mass_source"].dropna().unique()]
     for _, row in study.designs.iterrows():
         if not isinstance(row.get("layout"), str):
             lines.append(f"  {row['environment']}: {row['note']}")

@@ -168,3 +168,87 @@ def panel_params(config: dict) -> dict:
     keep = ("geometry", "panel", "budget", "fill", "environments", "materials",
             "particle_material", "surrogate", "optimisation")
     return {key: config[key] for key in keep}
+
+
+@dataclass(frozen=True)
+class PanelCheckSettings:
+    """The DEM check of a mode (config ``panel.check``; :mod:`pidpipe.panel.check`).
+
+    Attributes
+    ----------
+    environment : int
+        Index into ``environments``: the mode checked is the lowest of its band.
+    design : str
+        The design kind whose layout is checked (``peak``, ``band_mean``, ``worst_case``).
+    layout : str
+        ``optimised``, ``source_antinode`` or ``source_uniform``.
+    force_n : float or None
+        The modal force F_0, N; None: the force that drives the panel model's layout, at its
+        resonance, to the middle of the environment's band of G.
+    groups, cells_per_group : int
+        Groups of the filled cells by |phi|, and DEM cells per group.
+    freq_points : int
+        Frequencies of the sweep.
+    freq_span_fraction : float
+        The sweep runs from the fully loaded mode's frequency x (1 - span) to the bare one's x
+        (1 + span).
+    transient_cycles, measured_cycles, sem_block_cycles : int
+    """
+
+    environment: int = 0
+    design: str = "band_mean"
+    layout: str = "optimised"
+    force_n: float | None = None
+    groups: int = 3
+    cells_per_group: int = 2
+    freq_points: int = 13
+    freq_span_fraction: float = 0.03
+    transient_cycles: int = 40
+    measured_cycles: int = 40
+    sem_block_cycles: int = 2
+
+    def __post_init__(self) -> None:
+        if self.design not in ("peak", "band_mean", "worst_case"):
+            raise ConfigError(f"config key panel.check.design = {self.design!r} is not allowed: "
+                              "one of peak, band_mean, worst_case")
+        if self.layout not in ("optimised", "source_antinode", "source_uniform"):
+            raise ConfigError(f"config key panel.check.layout = {self.layout!r} is not allowed: "
+                              "one of optimised, source_antinode, source_uniform")
+        if self.force_n is not None and not (math.isfinite(self.force_n) and self.force_n > 0):
+            raise ConfigError(f"config key panel.check.force_n = {self.force_n!r} is not allowed: "
+                              "a force > 0 N, or null")
+        counts = {"environment": (self.environment, 0), "groups": (self.groups, 1),
+                  "cells_per_group": (self.cells_per_group, 1), "freq_points": (self.freq_points, 3),
+                  "transient_cycles": (self.transient_cycles, 0),
+                  "measured_cycles": (self.measured_cycles, 2),
+                  "sem_block_cycles": (self.sem_block_cycles, 1)}
+        for name, (value, low) in counts.items():
+            if value < low:
+                raise ConfigError(f"config key panel.check.{name} = {value} is not allowed: it must "
+                                  f"be >= {low}")
+        if not 0.0 < self.freq_span_fraction < 0.5:
+            raise ConfigError(f"config key panel.check.freq_span_fraction = "
+                              f"{self.freq_span_fraction} is not allowed: it must lie in (0, 0.5)")
+        if self.measured_cycles < 2 * self.sem_block_cycles:
+            raise ConfigError(f"config key panel.check.measured_cycles = {self.measured_cycles} is "
+                              f"not allowed: it must hold two blocks of sem_block_cycles "
+                              f"({self.sem_block_cycles})")
+
+    @classmethod
+    def from_config(cls, config: dict) -> "PanelCheckSettings":
+        """Parse a validated config's ``panel.check``; the environment must exist."""
+        check = dict(config["panel"].get("check", {}))
+        force = check.get("force_n")
+        settings = cls(**{**check, "force_n": None if force is None else float(force)})
+        if settings.environment >= len(config["environments"]):
+            raise ConfigError(f"config key panel.check.environment = {settings.environment} is not "
+                              f"allowed: there are {len(config['environments'])} environments")
+        return settings
+
+
+def panel_check_params(config: dict) -> dict:
+    """What the DEM check of a mode depends on (a rule's ``params``): the modal stage's part of
+    the config and a packing's (pours, contact, timestep)."""
+    from pidpipe.config.stages import stage_config
+
+    return {**stage_config(config, "packing"), **panel_params(config)}

@@ -65,6 +65,9 @@ from pidpipe.dem.kernel import (
 
 # the host's parameter vector
 H_MASS, H_DAMPING, H_STIFFNESS, H_SCALE, H_FORCE, H_OMEGA, H_WEIGHT, N_HOST_PARAMS = range(8)
+# a group's parameters (run_coupled_groups): weight phi_g, cells per integrated cell S_g, and
+# the weight of its integrated cells' spheres W_0,g (N)
+G_WEIGHT, G_SCALE, G_GRAVITY, N_GROUP_PARAMS = range(4)
 # the host's state vector: displacement m, velocity m/s, acceleration m/s^2
 S_X, S_U, S_A, N_HOST_STATE = 0, 1, 2, 3
 # rows of the per-cycle host output (J for the works; m and N for the harmonic sums)
@@ -119,9 +122,73 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     out_energy : (8, nb, n_cycles + 1) the spheres' energies at the cycle boundaries (kernel
         rows E_*)
     out_host_energy : (n_cycles + 1,) E_h at the boundaries, J
+
+    It is :func:`run_coupled_groups` with every cell in one group at weight 1 (the same
+    arithmetic, operation for operation).
+    """
+    n_batch = x.shape[1]
+    group_of = np.zeros(n_batch, dtype=np.int64)
+    group_p = np.empty((1, N_GROUP_PARAMS))
+    group_p[0, G_WEIGHT] = 1.0
+    group_p[0, G_SCALE] = host_p[H_SCALE]
+    group_p[0, G_GRAVITY] = host_p[H_WEIGHT]
+    run_coupled_groups(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
+                       normals, offsets, host_p, group_of, group_p, host_state, step0, n_cycles,
+                       steps_per_cycle, reference, out_cycle, out_cell, out_terms, out_energy,
+                       out_host_energy)
+
+
+@njit(cache=True, error_model="numpy")
+def _preload(group_p):
+    """sum_g S_g phi_g W_0,g, N: the modal weight of the spheres that the spring's preload holds."""
+    total = 0.0
+    for g in range(group_p.shape[0]):
+        total += group_p[g, G_SCALE] * group_p[g, G_WEIGHT] * group_p[g, G_GRAVITY]
+    return total
+
+
+@njit(cache=True, error_model="numpy")
+def set_up_coupled_groups(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p,
+                          flags, normals, offsets, group_of, group_p, zh, uh):
+    """:func:`set_up_coupled` with the walls of cell b at phi_g(b) zh (m) moving at phi_g(b) uh
+    (m/s), the host at (zh, uh)."""
+    _pack(x, v, w, f, t, body)
+    for b in range(x.shape[1]):
+        phi = group_p[group_of[b], G_WEIGHT]
+        out = _forces(body[b], hist[b], p, flags[0] != 0, flags[1] != 0, normals, offsets,
+                      phi * zh, phi * uh, False)
+        wall_fz[b] = out[0]
+    _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
+
+
+@njit(cache=True, error_model="numpy")
+def run_coupled_groups(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz, p, flags,
+                       normals, offsets, host_p, group_of, group_p, host_state, step0, n_cycles,
+                       steps_per_cycle, reference, out_cycle, out_cell, out_terms, out_energy,
+                       out_host_energy):
+    """:func:`run_coupled` for cells in groups that move with the host at weights phi_g.
+
+    The host is a mode's coordinate q (the antinode's displacement, m); the cells of group g sit
+    where the mode shape is phi_g, their walls at z_w = phi_g q moving at phi_g q', and each
+    integrated cell of the group stands for S_g cells. The spheres' generalised force on the
+    mode is R = -sum_g S_g phi_g (F_w,g - W_0,g) (F_w,g the group's walls' total z force on its
+    spheres, W_0,g the weight of those spheres), the walls' work S_g W_w,g is phi_g times the
+    host's displacement step, and E_h's preload term is -sum_g S_g phi_g W_0,g q.
+
+    Parameters
+    ----------
+    host_p : (N_HOST_PARAMS,)
+        As for :func:`run_coupled`; its S and W_0 are not used (the groups carry them).
+    group_of : (nb,) int64
+        Each cell's group.
+    group_p : (n_groups, N_GROUP_PARAMS)
+        Per group: phi_g, S_g, W_0,g (N, the weight of its integrated cells' spheres, unscaled).
+    others
+        As for :func:`run_coupled`; ``out_cycle``'s wall works and R are the groups' sums.
     """
     _pack(x, v, w, f, t, body)
     n_batch = x.shape[1]
+    n_groups = group_p.shape[0]
     pairs, work_rows, lane = _scratch(x.shape[2])       # reused at every step, as in kernel.run
     near, near_n, anchor = _near_scratch(n_batch, x.shape[2])
     dt = p[DT]
@@ -129,7 +196,11 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
     half_over_i = 0.5 * dt / p[INERTIA]
     friction, rotation = flags[0] != 0, flags[1] != 0
     m_h, c_h, k_h = host_p[H_MASS], host_p[H_DAMPING], host_p[H_STIFFNESS]
-    scale, force0, omega, weight0 = host_p[H_SCALE], host_p[H_FORCE], host_p[H_OMEGA], host_p[H_WEIGHT]
+    force0, omega = host_p[H_FORCE], host_p[H_OMEGA]
+    # E_h's preload term, -sum_g S_g phi_g W_0,g x, as S W_0 x of a single host
+    energy_p = host_p.copy()
+    energy_p[H_SCALE] = 1.0
+    energy_p[H_WEIGHT] = _preload(group_p)
     half_dt_over_mh = 0.5 * dt / m_h
     implicit = 1.0 / (1.0 + c_h * half_dt_over_mh)
     xh, uh, ah = host_state[S_X], host_state[S_U], host_state[S_A]
@@ -138,11 +209,13 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
         fz_prev[b] = wall_fz[b]
     acc = np.zeros((4, 2, n_batch))
     cell_fz = np.zeros(n_batch)
+    fz_group = np.zeros(n_groups)
+    work_group = np.zeros(n_groups)
     force_prev = force0 * math.cos(omega * (step0 * dt))
     harmonic = 2.0 / steps_per_cycle
     for b in range(n_batch):
         _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, 0])
-    out_host_energy[0] = _host_energy(host_p, host_state, dt)
+    out_host_energy[0] = _host_energy(energy_p, host_state, dt)
     for cycle in range(n_cycles):
         acc[:] = 0.0
         work_f = damp_h = work_w = gross_w = xc = xs = rc = rs = peak = 0.0
@@ -154,30 +227,37 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             u_half = uh + ah * (0.5 * dt)
             dx = u_half * dt
             x_new = xh + dx
-            # forces at the new positions, walls at x_new moving with u_half
-            fz_sum = 0.0
-            wall_work = 0.0
+            # forces at the new positions, the walls of group g at phi_g x_new moving with
+            # phi_g u_half
+            fz_group[:] = 0.0
+            work_group[:] = 0.0
             for b in range(n_batch):
+                g = group_of[b]
+                phi = group_p[g, G_WEIGHT]
                 out = _forces_into(body[b], hist[b], p, friction, rotation, normals, offsets,
-                                   x_new, u_half, True, pairs, work_rows, lane, near[b],
-                                   near_n[b], anchor[b])
+                                   phi * x_new, phi * u_half, True, pairs, work_rows, lane,
+                                   near[b], near_n[b], anchor[b])
                 fz = out[0]
-                wall_work += (fz_prev[b] + fz) * (0.5 * dx)
+                work_group[g] += (fz_prev[b] + fz) * (0.5 * (phi * dx))
                 fz_prev[b] = fz
                 cell_fz[b] = fz
-                fz_sum += fz
+                fz_group[g] += fz
                 _add_terms(acc, b, out)
+            reaction = 0.0
+            step_work = 0.0
+            for g in range(n_groups):
+                reaction += -(group_p[g, G_SCALE] * group_p[g, G_WEIGHT]) * (fz_group[g] - group_p[g, G_GRAVITY])
+                step_work += group_p[g, G_SCALE] * work_group[g]
             # the host's second half kick, implicit in its damping
             phase = omega * ((first + s + 1) * dt)
             force_new = force0 * math.cos(phase)
-            reaction = -scale * (fz_sum - weight0)
             rhs = force_new - k_h * x_new + reaction
             u_new = (u_half + rhs * half_dt_over_mh) * implicit
             a_new = (rhs - c_h * u_new) / m_h
             work_f += (force_prev + force_new) * (0.5 * dx)
             damp_h += c_h * (uh + u_new) * (0.5 * dx)
-            work_w += scale * wall_work
-            gross_w += abs(scale * wall_work)
+            work_w += step_work
+            gross_w += abs(step_work)
             cos_p, sin_p = math.cos(phase), math.sin(phase)
             xc += x_new * cos_p
             xs += x_new * sin_p
@@ -207,11 +287,12 @@ def run_coupled(x, v, w, f, t, shear, tenergy, delta, slide, body, hist, wall_fz
             _cycle_terms(acc, b, dt, out_terms, cycle)
             _ledger(body[b], hist[b], p, rotation, reference[b], out_energy[:, b, cycle + 1])
         host_state[S_X], host_state[S_U], host_state[S_A] = xh, uh, ah
-        out_host_energy[cycle + 1] = _host_energy(host_p, host_state, dt)
+        out_host_energy[cycle + 1] = _host_energy(energy_p, host_state, dt)
     for b in range(n_batch):
         wall_fz[b] = fz_prev[b]
     host_state[S_X], host_state[S_U], host_state[S_A] = xh, uh, ah
     _unpack(body, hist, x, v, w, f, t, shear, tenergy, delta, slide)
 
 
-__all__ = ["run_coupled", "set_up_coupled", "N_ENERGY_ROWS"]
+__all__ = ["run_coupled", "run_coupled_groups", "set_up_coupled", "set_up_coupled_groups",
+           "N_ENERGY_ROWS"]

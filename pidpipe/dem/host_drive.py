@@ -4,7 +4,8 @@
 force), k settled packings (or none: the bare host), the host's parameters and the force, and
 returns the per-cycle series: the host's first-harmonic displacement, the spheres' first-harmonic
 force on it, and every term of the energy balance. See :mod:`pidpipe.dem.coupled` for the
-equations and the gravity convention.
+equations and the gravity convention. :func:`run_host_groups` drives cells in groups at weights
+phi_g along a mode shape (the host then is the mode's coordinate; :mod:`pidpipe.panel.check`).
 """
 
 from __future__ import annotations
@@ -133,13 +134,147 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
         cpu_s=time.process_time() - started)
 
 
+@dataclass(frozen=True)
+class CellGroups:
+    """Integrated cells in groups along a mode shape (:func:`run_host_groups`).
+
+    Attributes
+    ----------
+    group_of : tuple of int, length k
+        Each integrated cell's group.
+    weights : tuple of float, length G
+        phi_g, the mode shape where the group's cells sit (the walls move as phi_g q).
+    cells : tuple of float, length G
+        n_g, the filled cells each group stands for (its integrated cells each stand for
+        S_g = n_g / k_g of them; n_g = 0: the group feels the host but does not act on it).
+    """
+
+    group_of: tuple
+    weights: tuple
+    cells: tuple
+
+    def __post_init__(self) -> None:
+        n_groups = len(self.weights)
+        members = np.bincount(np.asarray(self.group_of, dtype=int), minlength=n_groups)
+        if (len(self.cells) != n_groups or members.size != n_groups or np.any(members == 0)
+                or not all(np.isfinite(w) for w in self.weights) or min(self.cells, default=0) < 0):
+            raise ValueError(f"every group needs a finite weight, cells >= 0 and at least one "
+                             f"integrated cell; got {self}")
+
+    @property
+    def scales(self) -> np.ndarray:
+        """S_g = n_g / k_g, shape (G,)."""
+        members = np.bincount(np.asarray(self.group_of, dtype=int), minlength=len(self.weights))
+        return np.asarray(self.cells, dtype=float) / members
+
+    @property
+    def cell_weights(self) -> np.ndarray:
+        """phi of each integrated cell, shape (k,)."""
+        return np.asarray(self.weights, dtype=float)[np.asarray(self.group_of, dtype=int)]
+
+    @property
+    def cell_scales(self) -> np.ndarray:
+        """S of each integrated cell, shape (k,)."""
+        return self.scales[np.asarray(self.group_of, dtype=int)]
+
+
+def run_host_groups(scene: Scene, positions_m, groups: CellGroups, host: HostDrive, n_cycles: int,
+                    initial_displacement_m: float = 0.0, initial_velocity_m_s: float = 0.0) -> dict:
+    """:func:`run_host` with the cells in groups at weights phi_g along a mode shape.
+
+    The host is a mode's coordinate q (the antinode's displacement, m): modal mass
+    ``host.mass_kg``, stiffness and structural damping as ``host``'s; the cells of group g ride
+    at phi_g q and their generalised force on the mode is -sum_g S_g phi_g (F_w,g - W_0,g)
+    (:func:`pidpipe.dem.coupled.run_coupled_groups`). ``host.cell_scale`` is not used (the groups
+    carry theirs). One group at weight 1 standing for S k cells is :func:`run_host` with scale S.
+
+    Parameters
+    ----------
+    scene : Scene
+    positions_m : array_like, shape (k, n, 3)
+        Settled packings of the k integrated cells (every group's at one fill: the kernel's cells
+        hold equal numbers of spheres), m.
+    groups : CellGroups
+    host : HostDrive
+    n_cycles : int
+    initial_displacement_m, initial_velocity_m_s : float
+        q and q' at t = 0; each cell's packing starts on its floor at phi_g q moving at phi_g q'.
+
+    Returns
+    -------
+    dict
+        As :func:`run_host`, with ``wall_work_j``, ``particle_dissipation_j`` and
+        ``particle_energy_j`` summed over the cells with their S_g, ``reaction`` the generalised
+        force, and ``group_wall_force`` (complex first harmonic of each group's mean wall z force
+        per integrated cell, N, shape (G, n_cycles)).
+    """
+    started = time.process_time()
+    positions = np.asarray(positions_m, dtype=float)
+    k = int(positions.shape[0])
+    group_of = np.ascontiguousarray(groups.group_of, dtype=np.int64)
+    if group_of.shape != (k,):
+        raise ValueError(f"{group_of.size} group indices for {k} packings")
+    phi = groups.cell_weights
+    scene, state = prepare(dataclasses.replace(scene, accel_g=np.zeros(k)), positions)
+    state.x[2] += phi[:, None] * initial_displacement_m
+    state.v[2] = phi[:, None] * initial_velocity_m_s
+    ws = compiled.KernelWorkspace(scene, state)
+    n = state.n_spheres
+    one_weight = n * scene.mass_kg * scene.gravity_m_s2
+    members = np.bincount(group_of, minlength=len(groups.weights))
+    group_p = np.zeros((len(groups.weights), coupled.N_GROUP_PARAMS))
+    group_p[:, coupled.G_WEIGHT] = groups.weights
+    group_p[:, coupled.G_SCALE] = groups.scales
+    group_p[:, coupled.G_GRAVITY] = members * one_weight
+    compiled._call(coupled.set_up_coupled_groups, *ws.state_arrays(state)[:-1], group_of, group_p,
+                   float(initial_displacement_m), float(initial_velocity_m_s))
+    params = np.zeros(coupled.N_HOST_PARAMS)
+    params[coupled.H_MASS] = host.mass_kg
+    params[coupled.H_DAMPING] = host.damping_ns_m
+    params[coupled.H_STIFFNESS] = host.stiffness_n_m
+    params[coupled.H_FORCE] = host.force_n
+    params[coupled.H_OMEGA] = scene.omega_rad_s
+    fz_group = np.bincount(group_of, weights=ws.wall_force_z, minlength=len(groups.weights))
+    reaction0 = float(-np.sum(group_p[:, coupled.G_SCALE] * group_p[:, coupled.G_WEIGHT]
+                              * (fz_group - group_p[:, coupled.G_GRAVITY])))
+    accel0 = (host.force_n - host.damping_ns_m * initial_velocity_m_s
+              - host.stiffness_n_m * initial_displacement_m + reaction0) / host.mass_kg
+    host_state = np.array([initial_displacement_m, initial_velocity_m_s, accel0])
+    n_cycles = int(n_cycles)
+    per_cycle = np.zeros((coupled.N_CYCLE_ROWS, n_cycles))
+    per_cell = np.zeros((2, k, n_cycles))
+    terms = np.zeros((4, 2, k, n_cycles))
+    energy = np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1))
+    host_energy = np.zeros(n_cycles + 1)
+    reference = np.ascontiguousarray(centre_of_mass_height(state))
+    compiled._call(coupled.run_coupled_groups, *ws.state_arrays(state)[:-1], params, group_of,
+                   group_p, host_state, 0, n_cycles, int(scene.steps_per_cycle), reference,
+                   per_cycle, per_cell, terms, energy, host_energy)
+    state.step += n_cycles * scene.steps_per_cycle
+    cell_force = per_cell[0] - 1j * per_cell[1]
+    group_force = np.stack([cell_force[group_of == g].mean(axis=0)
+                            for g in range(len(groups.weights))])
+    return cycle_series(per_cycle, terms, energy, host_energy, groups.cell_scales) | dict(
+        cell_wall_force=cell_force, group_wall_force=group_force,
+        cell_dissipation_j=terms.sum(axis=(0, 1)),
+        steps_per_cycle=int(scene.steps_per_cycle), timestep_s=float(scene.timestep_s),
+        n_cells=k, n_spheres=n, freq_hz=float(scene.freq_hz),
+        cpu_s=time.process_time() - started)
+
+
 def cycle_series(per_cycle: np.ndarray, terms: np.ndarray, energy: np.ndarray,
-                 host_energy: np.ndarray, cell_scale: float) -> dict:
-    """The named per-cycle series of :func:`run_host` from the kernel's output arrays."""
+                 host_energy: np.ndarray, cell_scale) -> dict:
+    """The named per-cycle series of :func:`run_host` from the kernel's output arrays
+    (``cell_scale``: S of every cell, or one per cell, shape (k,), for :func:`run_host_groups`)."""
     from pidpipe.dem.kernel import E_LEDGER
 
-    particle_energy = cell_scale * energy[E_LEDGER].sum(axis=0)
-    dissipation = cell_scale * terms.sum(axis=(0, 1, 2))
+    if np.ndim(cell_scale):
+        scales = np.asarray(cell_scale, dtype=float)
+        particle_energy = (scales[:, None] * energy[E_LEDGER]).sum(axis=0)
+        dissipation = (scales[:, None] * terms.sum(axis=(0, 1))).sum(axis=0)
+    else:
+        particle_energy = cell_scale * energy[E_LEDGER].sum(axis=0)
+        dissipation = cell_scale * terms.sum(axis=(0, 1, 2))
     change = np.diff(host_energy + particle_energy)
     work, damping = per_cycle[coupled.C_FORCE_WORK], per_cycle[coupled.C_HOST_DAMPING]
     # x = Re(X e^{i Omega t}) = X_r cos - X_i sin: the cosine sum is X_r, the sine sum -X_i
@@ -173,4 +308,5 @@ def effective_mass_and_damping(displacement: np.ndarray, reaction: np.ndarray,
     return ratio.real / omega_rad_s**2, -ratio.imag / omega_rad_s
 
 
-__all__ = ["HostDrive", "run_host", "cycle_series", "effective_mass_and_damping"]
+__all__ = ["HostDrive", "CellGroups", "run_host", "run_host_groups", "cycle_series",
+           "effective_mass_and_damping"]

@@ -114,7 +114,12 @@ class _RegionProblem:
         x, r = self.unpack(z)
         reg, loss = self.regions, self.loss
         filled = reg.count * x
-        mass = loss.mode.modal_mass_kg + float(np.sum(filled * loss.cell_effective_mass_kg(r) * reg.phi2_mean))
+        if loss.effective_mass_kg is None:
+            per_level = loss.cell_effective_mass_kg(r) * reg.phi2_mean
+        else:       # m_eff with |phi|: the mean of m_eff phi^2 over the level's quantiles
+            s = reg.samples
+            per_level = (loss.cell_effective_mass_kg(np.broadcast_to(r[:, None], s.shape), s) * s**2).mean(axis=1)
+        mass = loss.mode.modal_mass_kg + float(np.sum(filled * per_level))
         freq = loss.mode.freq_hz * math.sqrt(loss.mode.modal_mass_kg / mass)
         lo, hi = loss.domain["accel_g"]
         g = accel_g[:, None, None] * reg.samples[None, :, :]               # (m, K, Q)

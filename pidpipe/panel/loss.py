@@ -10,7 +10,8 @@ damping  c_p = sum_i C_i phi_i^2  and the added loss factor
 
 M_plate the bare plate's modal mass (:class:`pidpipe.panel.plate.Mode`), m_eff,i the particles'
 effective mass in cell i (by default ``effective_mass_fraction`` of the bed's whole mass; pass
-``effective_mass_kg`` to use a measured one) and f = omega / 2 pi the loaded mode's frequency.
+``effective_mass_kg`` to use a measured one, such as the m_eff surrogate's,
+:class:`pidpipe.panel.mass.SurrogateEffectiveMass`) and f = omega / 2 pi the loaded mode's frequency.
 
 The cells of one fill are summed in narrow bins of |phi| (:data:`PHI_BINS`), so that a layout of
 thousands of cells costs a few hundred predictions per acceleration.
@@ -84,7 +85,8 @@ class ModalLoss:
     effective_mass_fraction : float
         m_eff of a cell as a fraction of its particles' mass (when ``effective_mass_kg`` is None).
     effective_mass_kg : callable, optional
-        ``effective_mass_kg(fill_pct, spheres)`` -> kg per cell, arrays of shape (k,).
+        ``effective_mass_kg(fill_pct, spheres, phi_abs)`` -> kg per cell, arrays of shape (k,)
+        (fills %, spheres per cell, the cells' |phi|).
     """
 
     mode: Mode
@@ -100,11 +102,14 @@ class ModalLoss:
         """Spheres per cell at fill r: full_cell_spheres r / 100 (not rounded)."""
         return self.full_cell_spheres * np.asarray(fill_pct, dtype=float) / 100.0
 
-    def cell_effective_mass_kg(self, fill_pct) -> np.ndarray:
-        """m_eff per cell at fill r, kg."""
+    def cell_effective_mass_kg(self, fill_pct, phi_abs=1.0) -> np.ndarray:
+        """m_eff per cell at fill r and |phi| (default 1: at the antinode), kg."""
         spheres = self.spheres(fill_pct)
         if self.effective_mass_kg is not None:
-            return np.asarray(self.effective_mass_kg(np.asarray(fill_pct, dtype=float), spheres), dtype=float)
+            fills, phi = np.broadcast_arrays(np.asarray(fill_pct, dtype=float),
+                                             np.abs(np.asarray(phi_abs, dtype=float)))
+            return np.asarray(self.effective_mass_kg(fills, np.broadcast_to(spheres, fills.shape), phi),
+                              dtype=float)
         return self.effective_mass_fraction * spheres * self.sphere_mass_kg
 
     def added_mass_kg(self, layout: Layout) -> float:
@@ -113,8 +118,21 @@ class ModalLoss:
 
     def modal_mass_kg(self, layout: Layout) -> float:
         """M = M_plate + sum m_eff,i phi_i^2, kg."""
-        phi2 = self.phi[layout.cells] ** 2
-        return self.mode.modal_mass_kg + float(np.sum(self.cell_effective_mass_kg(layout.fill_pct) * phi2))
+        phi = self.phi[layout.cells]
+        return self.mode.modal_mass_kg + float(np.sum(self.cell_effective_mass_kg(layout.fill_pct, phi) * phi**2))
+
+    def state_added_mass_kg(self, layout: Layout, accel_g, freq_hz: float) -> np.ndarray:
+        """sum_i m_eff,i phi_i^2 (kg) at antinode accelerations G (shape (m,)) and frequency f:
+        read at each G when the effective mass is the m_eff surrogate's
+        (:class:`pidpipe.panel.mass.SurrogateEffectiveMass`), else the layout's fixed one."""
+        from pidpipe.panel.mass import SurrogateEffectiveMass
+
+        accel = np.atleast_1d(np.asarray(accel_g, dtype=float))
+        mass = self.effective_mass_kg
+        if not isinstance(mass, SurrogateEffectiveMass) or layout.cells.size == 0:
+            return np.full(accel.shape, self.modal_mass_kg(layout) - self.mode.modal_mass_kg)
+        levels, fills, weights = self._binned(layout)
+        return mass.projected_kg(fills, self.spheres(fills), levels, weights, accel, freq_hz)
 
     def frequency_hz(self, layout: Layout) -> float:
         """The loaded mode's frequency f_0 sqrt(M_plate / M), Hz."""

@@ -30,6 +30,7 @@ from pidpipe.config.panel import PanelSettings
 from pidpipe.panel.cells import cell_centres
 from pidpipe.panel.layout import antinode_layout, make_regions, optimise_layout, uniform_layout
 from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
+from pidpipe.panel.mass import FULL_MASS, SurrogateEffectiveMass
 from pidpipe.panel.plate import Mode, Sandwich, plate_modes
 from pidpipe.panel.response import forced_response
 from pidpipe.panel.uncertainty import UncertainCeq, interval
@@ -77,7 +78,7 @@ class PanelStudy:
 
 def run_panel_study(settings: PanelSettings, surrogate, environments: list, search,
                     n_cells_coupon: int, model: UncertainCeq | None = None,
-                    effective_mass_kg=None) -> PanelStudy:
+                    effective_mass_kg=None, m_eff_surrogate=None) -> PanelStudy:
     """Modes, layouts and loss factors of every environment (module docstring).
 
     Parameters
@@ -94,8 +95,14 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
         The C_eq model with its uncertainty; default: the surrogate with
         ``settings.surrogate_draws`` bootstrap refits.
     effective_mass_kg : callable, optional
-        ``effective_mass_kg(fill_pct, spheres)`` -> the particles' effective mass per cell, kg
-        (arrays); default: ``settings.effective_mass_fraction`` of the bed's whole mass.
+        ``effective_mass_kg(fill_pct, spheres, phi_abs)`` -> the particles' effective mass per
+        cell, kg (arrays); default: ``settings.effective_mass_fraction`` of the bed's whole mass.
+    m_eff_surrogate : optional
+        One cell's m_eff(f, G, r) surrogate, kg (``results/surrogate_m_eff.json``): each mode's
+        cells then add the m_eff read at the mode's frequency and at their G over the
+        environment's band middle (:class:`pidpipe.panel.mass.SurrogateEffectiveMass`); it takes
+        precedence over ``effective_mass_kg``. designs.csv says which mass was used
+        (``modal_mass_source``).
     """
     from pidpipe.design.designs import optimise_design
     from pidpipe.design.optimisation import Budget
@@ -124,9 +131,12 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
         sources = {kind: optimise_design(surrogate, env, budget, kind, search).design for kind in KINDS}
         for mode in in_band:
             phi = mode.shape(centres[:, 0], centres[:, 1])
+            mass, mass_source = effective_mass_model(settings, env, mode, effective_mass_kg, m_eff_surrogate)
+            logger.info("environment %r, mode (%d, %d): the modal mass takes the %s", env.name,
+                        mode.m, mode.n, mass_source)
             loss = ModalLoss(mode, phi, n_cells_coupon, settings.full_cell_spheres,
                              settings.sphere_mass_kg, model.domain, settings.effective_mass_fraction,
-                             effective_mass_kg)
+                             mass)
             regions = make_regions(phi, settings.regions)
             for kind in KINDS:
                 source = sources[kind]
@@ -142,6 +152,7 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                     layout = chosen[name]
                     row, cells, forced = _evaluate(env, mode, kind, loss, model, layout, band,
                                                    settings, best if name == "optimised" else None)
+                    row["modal_mass_source"] = mass_source
                     designs.append(row)
                     layouts.append(_cells_frame(env, mode, kind, layout, loss, centres, band))
                     responses += forced
@@ -152,6 +163,17 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                       layouts=pd.concat(layouts, ignore_index=True) if layouts else pd.DataFrame(),
                       responses=pd.DataFrame(responses), uncertainty=model.kind,
                       optimisation_s=optimisation_s, figure_layouts=figure)
+
+
+def effective_mass_model(settings: PanelSettings, env, mode: Mode, effective_mass_kg, m_eff_surrogate):
+    """The cells' m_eff model on one mode and its description (``modal_mass_source``)."""
+    if m_eff_surrogate is not None:
+        mass = SurrogateEffectiveMass(m_eff_surrogate, mode.freq_hz, 0.5 * (env.accel_g[0] + env.accel_g[1]),
+                                      settings.sphere_mass_kg)
+        return mass, mass.describe()
+    if effective_mass_kg is not None:
+        return effective_mass_kg, "effective mass given by the caller"
+    return None, f"{FULL_MASS} {settings.effective_mass_fraction:g}"
 
 
 def _objective(summary: dict, kind: str) -> float:

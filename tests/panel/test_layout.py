@@ -114,7 +114,7 @@ def test_a_measured_effective_mass_per_cell_can_replace_the_beds_whole_mass():
     layout = antinode_layout(loss.phi, 500, 50.0)
     whole = loss.modal_mass_kg(layout) - loss.mode.modal_mass_kg
     half = ModalLoss(loss.mode, loss.phi, N_COUPON, 21, SPHERE_KG, DOMAIN,
-                     effective_mass_kg=lambda fill, spheres: 0.5 * spheres * SPHERE_KG)
+                     effective_mass_kg=lambda fill, spheres, phi: 0.5 * spheres * SPHERE_KG)
     assert half.modal_mass_kg(layout) - loss.mode.modal_mass_kg == pytest.approx(0.5 * whole)
     assert whole == pytest.approx(np.sum(loss.phi[layout.cells] ** 2) * 21 * 0.5 * SPHERE_KG)
     assert half.frequency_hz(layout) > loss.frequency_hz(layout)

@@ -1,6 +1,7 @@
 # The panel's modal stage (not part of `all`): the config's simply supported sandwich plate, its
 # modes with the core's transverse shear, and on each mode in an environment's band the
-# source-style and the optimised layouts of the particles with their added loss factors.
+# source-style and the optimised layouts of the particles with their added loss factors; the modal
+# mass takes the particles' m_eff from results/surrogate_m_eff.json when the table has m_eff.
 #   snakemake --cores 2 panel
 # It refits the surrogate's bootstrap draws and reruns the coupon designs: about a minute.
 
@@ -8,6 +9,7 @@
 rule design_panel:
     input:
         surrogate="results/surrogate.json",
+        m_eff_surrogate=get_m_eff_surrogate(),
     output:
         modes="results/panel/modes.csv",
         layout="results/panel/layout.csv",
@@ -30,3 +32,41 @@ rule design_panel:
 rule panel:
     input:
         rules.design_panel.output,
+
+
+# The DEM check of a mode (not part of `all`): the mode of panel.check's environment as a host
+# carrying compiled-DEM cells of the checked layout in groups along the mode shape, coupled two
+# ways and swept in frequency at one modal force, against the panel model (pidpipe.panel.check).
+#   snakemake --cores 2 panel_check
+# It pours groups x cells_per_group packings (results/work/panel/packings, reused) and runs
+# freq_points coupled runs, two at a time with --cores 2.
+
+from pidpipe.config.panel import panel_check_params
+
+
+rule check_panel_mode:
+    input:
+        surrogate="results/surrogate.json",
+        m_eff_surrogate=get_m_eff_surrogate(),
+        layout="results/panel/layout.csv",
+    output:
+        curves=report("results/panel/check/curves.csv", caption="../report/panel_check.rst",
+                      category="10. Panel"),
+        summary=report("results/panel/check/summary.csv", caption="../report/panel_check.rst",
+                       category="10. Panel"),
+        meta="results/panel/check/check.json",
+    params:
+        config=panel_check_params(config),
+        folder="results/work/panel/packings",
+    log:
+        "logs/check_panel_mode.log",
+    benchmark:
+        "results/benchmarks/check_panel_mode.tsv"
+    threads: 2
+    script:
+        "../scripts/check_panel_mode.py"
+
+
+rule panel_check:
+    input:
+        rules.check_panel_mode.output,

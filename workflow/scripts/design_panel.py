@@ -9,4 +9,5 @@ run_step(
     config=snakemake.params.config,
     surrogate_path=snakemake.input.surrogate,
     folder=snakemake.params.folder,
+    m_eff_surrogate_path=next(iter(snakemake.input.m_eff_surrogate), None),
 )
