@@ -20,7 +20,7 @@ from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
 from pidpipe.errors import ConfigError
-from pidpipe.config.panel import panel_params
+from pidpipe.config.panel import panel_check_params, panel_params
 from pidpipe.config.refine import RefineSettings
 from pidpipe.steps.refine import read_step
 
@@ -404,3 +404,9 @@ def get_host_config():
 def get_panel_config():
     """The config values the modal stage depends on (pidpipe.config.panel.panel_params)."""
     return panel_params(config)
+
+
+def get_panel_check_config():
+    """The config values the DEM check of a mode depends on
+    (pidpipe.config.panel.panel_check_params)."""
+    return panel_check_params(config)

@@ -41,9 +41,6 @@ rule panel:
 # It pours groups x cells_per_group packings (results/work/panel/packings, reused) and runs
 # freq_points coupled runs, two at a time with --cores 2.
 
-from pidpipe.config.panel import panel_check_params
-
-
 rule check_panel_mode:
     input:
         surrogate="results/surrogate.json",
@@ -56,7 +53,7 @@ rule check_panel_mode:
                        category="10. Panel"),
         meta="results/panel/check/check.json",
     params:
-        config=panel_check_params(config),
+        config=get_panel_check_config(),
         folder="results/work/panel/packings",
     log:
         "logs/check_panel_mode.log",
