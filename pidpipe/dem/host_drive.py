@@ -103,24 +103,13 @@ def run_host(scene: Scene, positions_m, host: HostDrive, n_cycles: int,
     n = state.n_spheres if k else 0
     omega = scene.omega_rad_s
     weight = k * n * scene.mass_kg * scene.gravity_m_s2
-    params = np.zeros(coupled.N_HOST_PARAMS)
-    params[coupled.H_MASS] = host.mass_kg
-    params[coupled.H_DAMPING] = host.damping_ns_m
-    params[coupled.H_STIFFNESS] = host.stiffness_n_m
+    params = _host_params(host, omega)
     params[coupled.H_SCALE] = host.cell_scale
-    params[coupled.H_FORCE] = host.force_n
-    params[coupled.H_OMEGA] = omega
     params[coupled.H_WEIGHT] = weight
     reaction0 = -host.cell_scale * (float(ws.wall_force_z.sum()) - weight)
-    accel0 = (host.force_n - host.damping_ns_m * initial_velocity_m_s
-              - host.stiffness_n_m * initial_displacement_m + reaction0) / host.mass_kg
-    host_state = np.array([initial_displacement_m, initial_velocity_m_s, accel0])
+    host_state = _host_state(host, initial_displacement_m, initial_velocity_m_s, reaction0)
     n_cycles = int(n_cycles)
-    per_cycle = np.zeros((coupled.N_CYCLE_ROWS, n_cycles))
-    per_cell = np.zeros((2, k, n_cycles))
-    terms = np.zeros((4, 2, k, n_cycles))
-    energy = np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1))
-    host_energy = np.zeros(n_cycles + 1)
+    per_cycle, per_cell, terms, energy, host_energy = _series_buffers(k, n_cycles)
     reference = np.ascontiguousarray(centre_of_mass_height(state)) if k else np.zeros(0)
     compiled._call(coupled.run_coupled, *ws.state_arrays(state)[:-1], params, host_state,
                    0, n_cycles, int(scene.steps_per_cycle), reference, per_cycle, per_cell, terms,
@@ -228,24 +217,13 @@ def run_host_groups(scene: Scene, positions_m, groups: CellGroups, host: HostDri
     group_p[:, coupled.G_GRAVITY] = members * one_weight
     compiled._call(coupled.set_up_coupled_groups, *ws.state_arrays(state)[:-1], group_of, group_p,
                    float(initial_displacement_m), float(initial_velocity_m_s))
-    params = np.zeros(coupled.N_HOST_PARAMS)
-    params[coupled.H_MASS] = host.mass_kg
-    params[coupled.H_DAMPING] = host.damping_ns_m
-    params[coupled.H_STIFFNESS] = host.stiffness_n_m
-    params[coupled.H_FORCE] = host.force_n
-    params[coupled.H_OMEGA] = scene.omega_rad_s
+    params = _host_params(host, scene.omega_rad_s)
     fz_group = np.bincount(group_of, weights=ws.wall_force_z, minlength=len(groups.weights))
     reaction0 = float(-np.sum(group_p[:, coupled.G_SCALE] * group_p[:, coupled.G_WEIGHT]
                               * (fz_group - group_p[:, coupled.G_GRAVITY])))
-    accel0 = (host.force_n - host.damping_ns_m * initial_velocity_m_s
-              - host.stiffness_n_m * initial_displacement_m + reaction0) / host.mass_kg
-    host_state = np.array([initial_displacement_m, initial_velocity_m_s, accel0])
+    host_state = _host_state(host, initial_displacement_m, initial_velocity_m_s, reaction0)
     n_cycles = int(n_cycles)
-    per_cycle = np.zeros((coupled.N_CYCLE_ROWS, n_cycles))
-    per_cell = np.zeros((2, k, n_cycles))
-    terms = np.zeros((4, 2, k, n_cycles))
-    energy = np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1))
-    host_energy = np.zeros(n_cycles + 1)
+    per_cycle, per_cell, terms, energy, host_energy = _series_buffers(k, n_cycles)
     reference = np.ascontiguousarray(centre_of_mass_height(state))
     compiled._call(coupled.run_coupled_groups, *ws.state_arrays(state)[:-1], params, group_of,
                    group_p, host_state, 0, n_cycles, int(scene.steps_per_cycle), reference,
@@ -310,3 +288,31 @@ def effective_mass_and_damping(displacement: np.ndarray, reaction: np.ndarray,
 
 __all__ = ["HostDrive", "CellGroups", "run_host", "run_host_groups", "cycle_series",
            "effective_mass_and_damping"]
+
+
+def _host_params(host: HostDrive, omega_rad_s: float) -> np.ndarray:
+    """The kernel's host parameters: mass, damping, stiffness, force and frequency (the cells'
+    scale and weight left at 0 for the caller)."""
+    params = np.zeros(coupled.N_HOST_PARAMS)
+    params[coupled.H_MASS] = host.mass_kg
+    params[coupled.H_DAMPING] = host.damping_ns_m
+    params[coupled.H_STIFFNESS] = host.stiffness_n_m
+    params[coupled.H_FORCE] = host.force_n
+    params[coupled.H_OMEGA] = omega_rad_s
+    return params
+
+
+def _host_state(host: HostDrive, displacement_m: float, velocity_m_s: float,
+                reaction_n: float) -> np.ndarray:
+    """The host's (x, x', x'') at t = 0 with the spheres' initial reaction on it (N)."""
+    accel = (host.force_n - host.damping_ns_m * velocity_m_s - host.stiffness_n_m * displacement_m
+             + reaction_n) / host.mass_kg
+    return np.array([displacement_m, velocity_m_s, accel])
+
+
+def _series_buffers(k: int, n_cycles: int) -> tuple[np.ndarray, ...]:
+    """The kernel's output arrays for k cells over n_cycles: per cycle, per cell, the energy
+    terms, the cells' energies and the host's at the cycle boundaries."""
+    return (np.zeros((coupled.N_CYCLE_ROWS, n_cycles)), np.zeros((2, k, n_cycles)),
+            np.zeros((4, 2, k, n_cycles)), np.zeros((coupled.N_ENERGY_ROWS, k, n_cycles + 1)),
+            np.zeros(n_cycles + 1))
