@@ -275,3 +275,129 @@ def test_uncertainty_interval_and_scatter_agree():
     assert np.all((wide[0] <= np.maximum(lower, 0.0)) & (wide[1] >= upper))
     value, u = surrogate.predict_with_uncertainty(300.0, 5.0, 50.0)
     assert value.shape == () and u.shape == ()
+
+
+# The default grid through lift-off: G in {0.5, 1, 2, 5, 10} g. With the truth above (onset at
+# 0.5 g) the C_eq on the 0.5 g plane is exactly zero, and so is its noise (relative SEMs, as
+# benchmarks/compare_surrogates.py draws them): the log target puts those 20 rows at ln(c0),
+# several log units below the 1 g plane and flat in f and r, a cliff no DEM table has (the
+# campaign's 0.5 g cases measure 0.0006-380 N*s/m with SEMs). With the onset at 0.25 g the
+# truth is positive on every level.
+G_LIFT_OFF = (0.5, 1.0, 2.0, 5.0, 10.0)
+#: The DEM campaign's relative SEM per G level (tests/fixtures/ceq_table_dem_default_100.csv:
+#: median 35 % at 0.5 g, 18-25 % at 1 g, about 4 % above).
+RELATIVE_SEM = {0.5: 0.35, 1.0: 0.25}
+
+
+def truth_with_onset(f, g, r, onset_g):
+    """:func:`truth` with its onset (zero C_eq) at ``onset_g`` instead of 0.5 g."""
+    return truth(f, np.asarray(g, dtype=float) - onset_g + 0.5, r)
+
+
+def lift_off_table(seed: int, onset_g: float) -> pd.DataFrame:
+    """The truth on the through-lift-off grid with the DEM campaign's relative SEMs per level;
+    flagged as the measurement flags them (within 2 SEM of zero: not_resolved)."""
+    table = pd.DataFrame(list(itertools.product(F_HZ, G_LIFT_OFF, R_PCT)),
+                         columns=["freq_hz", "accel_g", "fill_pct"])
+    exact = truth_with_onset(table["freq_hz"], table["accel_g"], table["fill_pct"], onset_g)
+    sem = table["accel_g"].map(RELATIVE_SEM).fillna(0.04).to_numpy() * exact
+    table[VALUE] = exact + sem * np.random.default_rng(seed).standard_normal(len(table))
+    table[SEM] = sem
+    unresolved = table[VALUE] <= 2.0 * sem
+    table["status"] = np.where(unresolved, "flagged", "ok")
+    table["flags"] = np.where(unresolved, "not_resolved", "")
+    return table
+
+
+def lift_off_coverage(onset_g: float, n_tables: int = 20, n_off: int = 150) -> dict:
+    """As the :func:`coverage` fixture on through-lift-off tables, off-grid points with G
+    log-uniform: ``grid`` and ``off <lo>-<hi> g`` for every interval between G levels."""
+    rng = np.random.default_rng(11)
+    out = {}
+    for seed in range(n_tables):
+        table = lift_off_table(seed, onset_g)
+        surrogate = fit_surrogate(table, method="gp")
+        assert len(surrogate.training) == 100
+        f, r = np.exp(rng.uniform(np.log(50), np.log(1000), n_off)), rng.uniform(25, 90, n_off)
+        g = np.exp(rng.uniform(np.log(0.5), np.log(10), n_off))
+        where = {"grid": (table["freq_hz"], table["accel_g"], table["fill_pct"])}
+        for lo, hi in zip(G_LIFT_OFF[:-1], G_LIFT_OFF[1:]):
+            inside = (g >= lo) & (g < hi)
+            where[f"off {lo:g}-{hi:g} g"] = (f[inside], g[inside], r[inside])
+        for name, points in where.items():
+            exact = truth_with_onset(*points, onset_g)
+            for level in (0.6827, 0.95):
+                lower, upper = surrogate.predict_interval(*points, level=level)
+                out.setdefault((name, level), []).append(
+                    (np.sum((exact >= lower) & (exact <= upper)), exact.size))
+    return out
+
+
+@pytest.fixture(scope="module")
+def zero_plane_coverage():
+    """The truth zero on the 0.5 g plane (onset 0.5 g)."""
+    return lift_off_coverage(0.5)
+
+
+@pytest.fixture(scope="module")
+def positive_coverage():
+    """The truth positive on every level (onset 0.25 g)."""
+    return lift_off_coverage(0.25)
+
+
+def _merged(coverage, names, level):
+    """The per-table counts of several bands added together (one (hits, size) per table)."""
+    return [tuple(np.sum([coverage[(name, level)][k] for name in names], axis=0))
+            for k in range(len(coverage[(names[0], level)]))]
+
+
+def _pooled_and_scatter(counts, level):
+    """Pooled coverage and its scatter (as :func:`_check_coverage` takes it)."""
+    hits, sizes = np.array(counts, dtype=float).T
+    fractions = hits / sizes
+    scatter = max(fractions.std(ddof=1) / np.sqrt(fractions.size),
+                  np.sqrt(level * (1 - level) / sizes.sum()))
+    return hits.sum() / sizes.sum(), scatter
+
+
+ABOVE_1_G = ("off 1-2 g", "off 2-5 g", "off 5-10 g")
+BELOW_2_G = ("off 0.5-1 g", "off 1-2 g")
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "a stationary kernel against a cliff: the zero-noise rows at ln(c0) on the 0.5 g plane set "
+    "the fit's amplitude and G length scale, and the intervals between 1 and 10 g come out too "
+    "wide (measured on these tables: 98.6 +- 1.0 % of the truth inside the 68.3 % intervals, "
+    "100.0 +- 0.5 % inside the 95 % ones; docs/explanation/designs.md)"))
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_with_a_zero_plane_the_intervals_above_1_g_are_calibrated(zero_plane_coverage, level):
+    _check_coverage(_merged(zero_plane_coverage, ABOVE_1_G, level), level)
+
+
+@pytest.mark.slow
+def test_with_a_zero_plane_the_pooled_coverage_hides_two_opposite_misses(zero_plane_coverage):
+    # What a pooled off-grid figure hides: above 1 g the truth lies inside the 68.3 % intervals
+    # far more often than nominal, between 0.5 and 1 g (where the truth's log falls without
+    # bound toward the zero plane, and no level shows where) far less often. Measured: 98.6 +-
+    # 1.0 % above 1 g, 23.0 +- 2.6 % between 0.5 and 1 g.
+    above, above_scatter = _pooled_and_scatter(_merged(zero_plane_coverage, ABOVE_1_G, 0.6827),
+                                               0.6827)
+    below, below_scatter = _pooled_and_scatter(zero_plane_coverage[("off 0.5-1 g", 0.6827)],
+                                               0.6827)
+    assert above - 3.0 * above_scatter > 0.6827 > below + 3.0 * below_scatter
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_with_a_positive_truth_the_intervals_below_2_g_are_too_narrow(positive_coverage, level):
+    # With the truth positive on every level the cliff is gone and the intervals are no longer
+    # too wide anywhere; between 0.5 and 2 g they are too narrow. There the cases' relative SEMs
+    # are 25-35 %: a Gaussian noise in ln C to first order understates them (a draw near zero
+    # lands far below in the log), and the truth's curvature in ln G is largest there while the
+    # kernel has one G length scale. Measured on these tables: 37.8 +- 4.5 % inside the 68.3 %
+    # intervals, 74.2 +- 4.3 % inside the 95 % ones (between 5 and 10 g: 68.7 +- 4.4 % and
+    # 93.7 +- 1.8 %). This test fails when the GP is calibrated there: then replace it by
+    # _check_coverage.
+    pooled, scatter = _pooled_and_scatter(_merged(positive_coverage, BELOW_2_G, level), level)
+    assert pooled + 3.0 * scatter < level
