@@ -24,9 +24,13 @@ With ``--synthetic N``: N tables on the table's (f, G, r) grid with a known anal
 case (the noise the DEM reported), each fitted from scratch; the coverage of the GP's latent
 68.3 % and 95 % intervals of the truth at the grid points and at random off-grid points, with
 the scatter of the mean coverage from the spread between tables; off-grid also split into the
-points between the two lowest G levels (1-5 g) and the rest.
+points between 1 and 5 g and above 5 g, and into every interval between neighbouring G levels of
+the grid (``off_G<lo>-<hi>``: a pooled off-grid figure can hide intervals too narrow in one band
+and too wide in another). ``--onset-g`` moves the truth's onset (default 0.5 g: the truth is
+exactly zero, and so is its SEM, at a 0.5 g level; 0.25 g makes it positive there).
 
 Run: .venv/bin/python benchmarks/compare_surrogates.py results/ceq_table.csv [--synthetic 40]
+[--onset-g 0.5]
 (the default campaign's DEM table is committed: tests/fixtures/ceq_table_dem_default.csv)
 Writes benchmarks/records/compare_surrogates.json.
 """
@@ -137,12 +141,24 @@ def verify_points(table: pd.DataFrame) -> dict:
     return out
 
 
-def synthetic_truth(f, g, r, scale):
-    """Analytic C_eq, N*s/m (test_surrogate_gp's truth times scale / 80)."""
-    return scale * (f / 100.0) ** 1.1 * (1.0 - np.exp(-(g - 0.5) / 3.0)) * (r / 100.0) * np.exp(-r / 120.0)
+#: G (g) at which the synthetic truth's onset starts (its C_eq is 0 there).
+ONSET_G = 0.5
 
 
-def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed: int = 7) -> dict:
+def synthetic_truth(f, g, r, scale, onset_g=ONSET_G):
+    """Analytic C_eq, N*s/m (test_surrogate_gp's truth times scale / 80; zero at ``onset_g``)."""
+    return (scale * (f / 100.0) ** 1.1 * (1.0 - np.exp(-(g - onset_g) / 3.0)) * (r / 100.0)
+            * np.exp(-r / 120.0))
+
+
+def level_intervals(levels) -> list[tuple[float, float]]:
+    """(lo, hi) of every interval between neighbouring grid levels, ascending."""
+    levels = np.unique(np.asarray(levels, dtype=float))
+    return list(zip(levels[:-1], levels[1:]))
+
+
+def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed: int = 7,
+                       onset_g: float = ONSET_G) -> dict:
     """Coverage of the GP's intervals of a known truth on the table's grid, with its relative SEMs."""
     grid = table[list(COORDINATE_COLUMNS)].drop_duplicates().reset_index(drop=True)
     kept, _ = split_for_fit(table, VALUE_COLUMN, SEM_COLUMN)
@@ -153,12 +169,14 @@ def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed
     rel = np.clip(np.nan_to_num(rel, nan=fallback), 0.01, 1.0)  # a case at ~0 C_eq has no relative SEM
     # the truth's scale: the table's largest value
     scale = float(kept[VALUE_COLUMN].max()) / float(synthetic_truth(
-        *(grid[c].to_numpy() for c in COORDINATE_COLUMNS), 1.0).max())
-    exact_grid = synthetic_truth(*(grid[c].to_numpy() for c in COORDINATE_COLUMNS), scale)
+        *(grid[c].to_numpy() for c in COORDINATE_COLUMNS), 1.0, onset_g).max())
+    exact_grid = synthetic_truth(*(grid[c].to_numpy() for c in COORDINATE_COLUMNS), scale, onset_g)
     lo = {c: grid[c].min() for c in COORDINATE_COLUMNS}
     hi = {c: grid[c].max() for c in COORDINATE_COLUMNS}
     rng = np.random.default_rng(seed)
-    keys = [(w, lv) for w in ("grid", "off", "off_low_g", "off_high_g") for lv in (0.6827, 0.95)]
+    bands = {f"off_G{lo:g}-{hi:g}": (lo, hi) for lo, hi in level_intervals(grid["accel_g"])}
+    keys = [(w, lv) for w in ("grid", "off", "off_low_g", "off_high_g", *bands)
+            for lv in (0.6827, 0.95)]
     coverage = {k: [] for k in keys}
     for k in range(n_tables):
         noisy = grid.copy()
@@ -176,14 +194,19 @@ def synthetic_coverage(table: pd.DataFrame, n_tables: int, n_off: int = 60, seed
         low = (off[1] >= 1.0) & (off[1] < 5.0)   # the lift-off transition, 1 to 5 g
         where = {"grid": tuple(grid[c].to_numpy() for c in COORDINATE_COLUMNS), "off": off,
                  "off_low_g": tuple(a[low] for a in off), "off_high_g": tuple(a[off[1] >= 5.0] for a in off)}
+        for name, (g_lo, g_hi) in bands.items():
+            inside = (off[1] >= g_lo) & (off[1] < g_hi)
+            where[name] = tuple(a[inside] for a in off)
         for name, level in keys:
             if where[name][0].size == 0:
                 continue
             lower, upper = surrogate.predict_interval(*where[name], level=level)
-            exact = synthetic_truth(*where[name], scale)
+            exact = synthetic_truth(*where[name], scale, onset_g)
             coverage[(name, level)].append((int(np.sum((exact >= lower) & (exact <= upper))), exact.size))
     out = {}
     for (name, level), counts in coverage.items():
+        if not counts:
+            continue
         hits, sizes = np.array(counts, dtype=float).T
         fractions = hits[sizes > 0] / sizes[sizes > 0]
         out[f"{name}_{round(100 * level)}"] = {
@@ -219,6 +242,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("table", type=Path, help="a campaign's results/ceq_table.csv")
     parser.add_argument("--synthetic", type=int, default=0, help="synthetic tables for the coverage (0: none)")
+    parser.add_argument("--onset-g", type=float, default=ONSET_G,
+                        help="G (g) where the synthetic truth is zero (default %(default)s)")
     args = parser.parse_args()
     table = read_ceq_table(args.table)
     kept, dropped = split_for_fit(table, VALUE_COLUMN, SEM_COLUMN)
@@ -232,10 +257,12 @@ def main() -> None:
     figures["verify_points"] = verify_points(table)
     print("At 450-500 Hz / 1 g:", json.dumps(figures["verify_points"], indent=None))
     if args.synthetic:
-        figures["synthetic_coverage"] = synthetic_coverage(table, args.synthetic)
-        print(f"GP coverage of a known truth on {args.synthetic} synthetic tables (the table's grid and relative SEMs):")
+        figures["synthetic_coverage"] = synthetic_coverage(table, args.synthetic, onset_g=args.onset_g)
+        figures["synthetic_onset_g"] = args.onset_g
+        print(f"GP coverage of a known truth (onset at {args.onset_g:g} g) on {args.synthetic} "
+              "synthetic tables (the table's grid and relative SEMs):")
         for key, row in figures["synthetic_coverage"].items():
-            print(f"  {key}: {row['coverage']:.3f} (nominal {row['nominal']:.3f}; scatter between tables "
+            print(f"  {key}: {row['coverage']:.3f} of {row['points']} (nominal {row['nominal']:.3f}; scatter between tables "
                   f"{row['scatter_between_tables']:.3f}, binomial {row['binomial_scatter_pooled']:.3f})")
     # the table by its place in a campaign folder and its digest, not by this machine's path
     repo = Path(__file__).resolve().parent.parent
@@ -244,7 +271,8 @@ def main() -> None:
     else:
         shown = "results/ceq_table.csv" if args.table.parent.name == "results" else args.table.name
     command = " ".join(["python benchmarks/compare_surrogates.py", shown]
-                       + (["--synthetic", str(args.synthetic)] if args.synthetic else []))
+                       + (["--synthetic", str(args.synthetic)] if args.synthetic else [])
+                       + (["--onset-g", f"{args.onset_g:g}"] if args.onset_g != ONSET_G else []))
     figures["table"]["sha256"] = hashlib.sha256(args.table.read_bytes()).hexdigest()
     record = {"benchmark": "compare_surrogates",
               "command": command,

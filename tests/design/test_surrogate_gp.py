@@ -107,14 +107,22 @@ def test_intervals_cover_the_truth_at_their_nominal_rates(coverage, where, level
 
 
 @pytest.mark.slow
+def test_the_95_pct_intervals_between_1_and_5_g_cover_the_truth_at_their_nominal_rate(coverage):
+    # Measured: 94.0 +- 1.4 %. With the cases observed as transformed values (before the
+    # linearised observations) 86.8 +- 2.6 %: the 30 % SEMs at 1 g, taken as Gaussian in ln C,
+    # were understated, and the intervals between 1 and 5 g came out too narrow.
+    _check_coverage(coverage[("off 1-5 g", 0.95)], 0.95)
+
+
+@pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
-    "between the 1 and 5 g levels the truth's onset bends and the grid has no level to show "
-    "it: the GP's intervals there are too narrow (measured on these tables: 47.9 +- 3.8 % of "
-    "the truth inside the 68.3 % intervals and 86.8 +- 2.6 % inside the 95 % ones, against "
-    "69.0 and 96.3 % between 5 and 10 g); a G level at 2-3 g would let the fit see the bend"))
-@pytest.mark.parametrize("level", [0.6827, 0.95])
-def test_intervals_between_1_and_5_g_are_too_narrow(coverage, level):
-    _check_coverage(coverage[("off 1-5 g", level)], level)
+    "between the 1 and 5 g levels the truth's onset bends and the grid has no level to show it; "
+    "measured on these tables: 60.9 +- 3.5 % of the truth inside the 68.3 % intervals (47.9 +- "
+    "3.8 % with the cases observed as transformed values), against 67.6 % between 5 and 10 g: "
+    "consistent with the nominal rate within 3 scatters, but the scatter between tables is too "
+    "large for this check to tell 68 % from 60 %"))
+def test_the_68_pct_intervals_between_1_and_5_g_cover_the_truth_at_their_nominal_rate(coverage):
+    _check_coverage(coverage[("off 1-5 g", 0.6827)], 0.6827)
 
 
 def test_a_hole_is_bridged_with_a_larger_uncertainty_than_its_neighbours():
@@ -133,12 +141,15 @@ def test_a_hole_is_bridged_with_a_larger_uncertainty_than_its_neighbours():
                            (500.0, 5.0, 75.0)])
     value, u = surrogate.predict_with_uncertainty(*hole)
     _, u_neighbours = surrogate.predict_with_uncertainty(*neighbours.T)
-    # measured: 3.5 % at the hole, 2.8-3.4 % (mean 3.1 %) at the neighbours; the neighbours
-    # nearer an edge of the domain have more than the interior ones, so the mean is compared
+    # measured: 2.43 % at the hole, 2.11-2.53 % (mean 2.37 %) at the neighbours; the neighbours
+    # nearer an edge of the domain have more than the interior ones, so the mean is compared.
+    # (With the cases observed as transformed values, before the linearised observations, the
+    # fit's length scales were shorter and the hole stood out more: 3.5 % against 2.8-3.4 %.)
     assert u / value > np.mean(u_neighbours / surrogate.predict(*neighbours.T))
-    # the same point measured: 2.8 % (the hole widens it 1.23 times; 1.18 with seed 4)
+    # the same point measured: 2.2 % (the hole widens it 1.10 times; 1.17, 1.10 and 1.13 with
+    # seeds 4-6; 1.23 and 1.18 with seeds 3 and 4 before the linearised observations)
     full = fit_surrogate(noisy_table(3), method="gp")
-    assert u > 1.15 * full.predict_with_uncertainty(*hole)[1]
+    assert u > 1.05 * full.predict_with_uncertainty(*hole)[1]
     assert abs(value - truth(*hole)) < 3.0 * u
 
 
@@ -241,7 +252,8 @@ def test_leave_one_out_z_scores_on_the_dem_campaign_table_are_calibrated():
     # The default campaign's DEM table (tests/fixtures/README.md), every case the fit policy keeps
     # held out in turn. For 60 z-scores of a calibrated model the mean scatters by 1/sqrt(60) =
     # 0.13 and the standard deviation by 1/sqrt(2 * 59) = 0.09: the bounds are 3 of those.
-    # Measured: z mean 0.02, std 0.87; RMS error 2.28 case SEMs against 5.13 for the RBF
+    # Measured: z mean -0.04, std 0.95 (0.02 and 0.87 with the cases observed as transformed
+    # values, before the linearised observations); RMS error 2.30 case SEMs against 5.13 for the RBF
     # fitted to the same rows and 116 for the RBF fitted to the ok rows only.
     from pathlib import Path
 
@@ -275,3 +287,173 @@ def test_uncertainty_interval_and_scatter_agree():
     assert np.all((wide[0] <= np.maximum(lower, 0.0)) & (wide[1] >= upper))
     value, u = surrogate.predict_with_uncertainty(300.0, 5.0, 50.0)
     assert value.shape == () and u.shape == ()
+
+
+# The default grid through lift-off: G in {0.5, 1, 2, 5, 10} g. With the truth above (onset at
+# 0.5 g) the C_eq on the 0.5 g plane is exactly zero, and so is its noise (relative SEMs, as
+# benchmarks/compare_surrogates.py draws them): the log target puts those 20 rows at ln(c0),
+# several log units below the 1 g plane and flat in f and r, a cliff no DEM table has (the
+# campaign's 0.5 g cases measure 0.0006-380 N*s/m with SEMs). With the onset at 0.25 g the
+# truth is positive on every level.
+G_LIFT_OFF = (0.5, 1.0, 2.0, 5.0, 10.0)
+#: The DEM campaign's relative SEM per G level (tests/fixtures/ceq_table_dem_default_100.csv:
+#: median 35 % at 0.5 g, 18-25 % at 1 g, about 4 % above).
+RELATIVE_SEM = {0.5: 0.35, 1.0: 0.25}
+
+
+def truth_with_onset(f, g, r, onset_g):
+    """:func:`truth` with its onset (zero C_eq) at ``onset_g`` instead of 0.5 g."""
+    return truth(f, np.asarray(g, dtype=float) - onset_g + 0.5, r)
+
+
+def lift_off_table(seed: int, onset_g: float) -> pd.DataFrame:
+    """The truth on the through-lift-off grid with the DEM campaign's relative SEMs per level;
+    flagged as the measurement flags them (within 2 SEM of zero: not_resolved)."""
+    table = pd.DataFrame(list(itertools.product(F_HZ, G_LIFT_OFF, R_PCT)),
+                         columns=["freq_hz", "accel_g", "fill_pct"])
+    exact = truth_with_onset(table["freq_hz"], table["accel_g"], table["fill_pct"], onset_g)
+    sem = table["accel_g"].map(RELATIVE_SEM).fillna(0.04).to_numpy() * exact
+    table[VALUE] = exact + sem * np.random.default_rng(seed).standard_normal(len(table))
+    table[SEM] = sem
+    unresolved = table[VALUE] <= 2.0 * sem
+    table["status"] = np.where(unresolved, "flagged", "ok")
+    table["flags"] = np.where(unresolved, "not_resolved", "")
+    return table
+
+
+def lift_off_coverage(onset_g: float, n_tables: int = 20, n_off: int = 150,
+                      observations: str = "linearised") -> dict:
+    """As the :func:`coverage` fixture on through-lift-off tables, off-grid points with G
+    log-uniform: ``grid`` and ``off <lo>-<hi> g`` for every interval between G levels."""
+    rng = np.random.default_rng(11)
+    out = {}
+    for seed in range(n_tables):
+        table = lift_off_table(seed, onset_g)
+        surrogate = fit_surrogate(table, method="gp", gp_observations=observations)
+        assert len(surrogate.training) == 100
+        f, r = np.exp(rng.uniform(np.log(50), np.log(1000), n_off)), rng.uniform(25, 90, n_off)
+        g = np.exp(rng.uniform(np.log(0.5), np.log(10), n_off))
+        where = {"grid": (table["freq_hz"], table["accel_g"], table["fill_pct"])}
+        for lo, hi in zip(G_LIFT_OFF[:-1], G_LIFT_OFF[1:]):
+            inside = (g >= lo) & (g < hi)
+            where[f"off {lo:g}-{hi:g} g"] = (f[inside], g[inside], r[inside])
+        for name, points in where.items():
+            exact = truth_with_onset(*points, onset_g)
+            for level in (0.6827, 0.95):
+                lower, upper = surrogate.predict_interval(*points, level=level)
+                out.setdefault((name, level), []).append(
+                    (np.sum((exact >= lower) & (exact <= upper)), exact.size))
+    return out
+
+
+@pytest.fixture(scope="module")
+def zero_plane_coverage():
+    """The truth zero on the 0.5 g plane (onset 0.5 g)."""
+    return lift_off_coverage(0.5)
+
+
+@pytest.fixture(scope="module")
+def positive_coverage():
+    """The truth positive on every level (onset 0.25 g)."""
+    return lift_off_coverage(0.25)
+
+
+def _merged(coverage, names, level):
+    """The per-table counts of several bands added together (one (hits, size) per table)."""
+    return [tuple(np.sum([coverage[(name, level)][k] for name in names], axis=0))
+            for k in range(len(coverage[(names[0], level)]))]
+
+
+def _pooled_and_scatter(counts, level):
+    """Pooled coverage and its scatter (as :func:`_check_coverage` takes it)."""
+    hits, sizes = np.array(counts, dtype=float).T
+    fractions = hits / sizes
+    scatter = max(fractions.std(ddof=1) / np.sqrt(fractions.size),
+                  np.sqrt(level * (1 - level) / sizes.sum()))
+    return hits.sum() / sizes.sum(), scatter
+
+
+ABOVE_1_G = ("off 1-2 g", "off 2-5 g", "off 5-10 g")
+BELOW_2_G = ("off 0.5-1 g", "off 1-2 g")
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=(
+    "a stationary kernel against a cliff: the zero-noise rows at ln(c0) on the 0.5 g plane set "
+    "the fit's amplitude and G length scale, and the intervals between 1 and 10 g come out too "
+    "wide (measured on these tables: 98.6 +- 1.0 % of the truth inside the 68.3 % intervals, "
+    "99.9 +- 0.5 % inside the 95 % ones; docs/explanation/designs.md)"))
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_with_a_zero_plane_the_intervals_above_1_g_are_calibrated(zero_plane_coverage, level):
+    _check_coverage(_merged(zero_plane_coverage, ABOVE_1_G, level), level)
+
+
+@pytest.mark.slow
+def test_with_a_zero_plane_the_pooled_coverage_hides_two_opposite_misses(zero_plane_coverage):
+    # What a pooled off-grid figure hides: above 1 g the truth lies inside the 68.3 % intervals
+    # far more often than nominal, between 0.5 and 1 g (where the truth's log falls without
+    # bound toward the zero plane, and no level shows where) far less often. Measured: 98.6 +-
+    # 1.0 % above 1 g, 25.1 +- 2.5 % between 0.5 and 1 g.
+    above, above_scatter = _pooled_and_scatter(_merged(zero_plane_coverage, ABOVE_1_G, 0.6827),
+                                               0.6827)
+    below, below_scatter = _pooled_and_scatter(zero_plane_coverage[("off 0.5-1 g", 0.6827)],
+                                               0.6827)
+    assert above - 3.0 * above_scatter > 0.6827 > below + 3.0 * below_scatter
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_with_a_positive_truth_the_intervals_are_near_their_nominal_rates(positive_coverage,
+                                                                         level):
+    # With the truth positive on every level the cliff is gone. Measured on these tables (68.3 %
+    # / 95 % intervals): grid 66.4 / 94.4 %, 0.5-1 g 56.8 / 91.8 %, 1-2 g 55.6 / 87.6 %, 2-5 g
+    # 58.9 / 90.2 %, 5-10 g 68.3 / 93.7 %, with scatters between tables of 4.6-5.5 points
+    # (68.3 %) and 2.0-3.2 (95 %) off the grid: within 3 scatters of nominal, where the
+    # transformed observations were not (0.5-2 g: 37.8 +- 4.5 % and 74.2 +- 4.3 %; the SEMs of
+    # 25-35 % there, taken as Gaussian in ln C, were understated). Twenty tables cannot tell
+    # 68 % from 60 % (the scatter between tables), so this checks 3 scatters only.
+    for band in ("grid", "off 0.5-1 g", "off 1-2 g", "off 2-5 g", "off 5-10 g"):
+        pooled, scatter = _pooled_and_scatter(positive_coverage[(band, level)], level)
+        assert abs(pooled - level) <= 3.0 * scatter, (band, pooled, scatter)
+    pooled, scatter = _pooled_and_scatter(positive_coverage[("grid", level)], level)
+    assert 3.0 * scatter < 0.05                          # on the grid the check is sharp
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("level", [0.6827, 0.95])
+def test_linearised_observations_cover_the_truth_below_2_g_better_than_transformed(level):
+    # The same ten positive-truth tables fitted both ways: between 0.5 and 2 g the transformed
+    # observations' intervals miss the truth far more often (a draw near zero lands several log
+    # units below, outside its stated noise). Measured: 56.5 against 37.4 % inside the 68.3 %
+    # intervals (gain 19.2 +- 5.1 points), 92.1 against 78.0 % inside the 95 % ones (14.4 +- 3.9).
+    linearised = _merged(lift_off_coverage(0.25, n_tables=10), BELOW_2_G, level)
+    transformed = _merged(lift_off_coverage(0.25, n_tables=10, observations="transformed"),
+                          BELOW_2_G, level)
+    # paired by table (the same tables, the same points): the per-table differences' scatter
+    (hits_l, sizes), (hits_t, _) = (np.array(c, dtype=float).T for c in (linearised, transformed))
+    gain = (hits_l - hits_t) / sizes
+    assert gain.mean() > 3.0 * gain.std(ddof=1) / np.sqrt(gain.size), gain
+    assert hits_l.sum() / sizes.sum() < level + 0.05           # nearer nominal, not beyond it
+
+
+def test_linearised_observations_are_saved_refitted_and_old_files_reload_as_they_were(tmp_path):
+    table = noisy_table(9)
+    surrogate = fit_surrogate(table, method="gp")
+    assert surrogate.options["gp_observations"] == "linearised"
+    f, g, r = random_points(50, np.random.default_rng(4))
+    # a refit on the same values rebuilds the same observations, so the same predictions
+    again = refit_values(surrogate, surrogate.training[VALUE].clip(lower=0.0).to_numpy())
+    np.testing.assert_allclose(again.predict(f, g, r), surrogate.predict(f, g, r), rtol=1e-9)
+    # a file from before the option (transformed observations, no key) reloads unchanged
+    old = fit_surrogate(table, method="gp", gp_observations="transformed")
+    path = tmp_path / "old.json"
+    save_surrogate(old, path)
+    document = json.loads(path.read_text())
+    del document["options"]["gp_observations"]
+    path.write_text(json.dumps(document))
+    loaded = load_surrogate(path)
+    np.testing.assert_allclose(loaded.predict(f, g, r), old.predict(f, g, r), rtol=1e-10)
+    # the two observations differ where the 1 g cases' 30 % SEMs make ln C skewed
+    assert not np.allclose(old.predict(f, g, r), surrogate.predict(f, g, r), rtol=1e-3)
+    with pytest.raises(TableError, match="gp_observations"):
+        fit_surrogate(table, method="gp", gp_observations="exact")
