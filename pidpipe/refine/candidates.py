@@ -32,7 +32,7 @@ import pandas as pd
 from pidpipe.design.ceq_table import SEM_COLUMN
 from pidpipe.design.optimisation import OptimisationResult
 from pidpipe.loop.verify import band_points, poured_fill
-from pidpipe.refine.table import case_key
+from pidpipe.refine.table import KEY_DECIMALS, case_key
 
 #: Effort (cells x cycles) after an extension over the effort before: 4 halves the SEM.
 EXTEND_FACTOR = 4.0
@@ -70,6 +70,12 @@ class Request:
     base: dict = field(default_factory=dict, compare=False, hash=False)
     designs: tuple[str, ...] = ()
     run: int = 0
+
+    def __post_init__(self) -> None:
+        # the coordinates as the table's key has them: a band's corner computed in floating
+        # point (800 Hz at 4.000000000000006 g) is the case 800 Hz, 4 g, not a case of its own id
+        for name, decimals in KEY_DECIMALS.items():
+            object.__setattr__(self, name, round(float(getattr(self, name)), decimals))
 
     @property
     def key(self) -> str:

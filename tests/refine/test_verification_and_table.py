@@ -111,3 +111,13 @@ def test_the_table_a_round_decides_from_is_the_table_as_it_reads_back():
     stored = as_stored(start_table(grid))
     assert stored["flags"].isna().all() and stored["n_cycles"].dtype.kind == "i"
     assert as_stored(stored).equals(stored)
+
+
+def test_a_request_at_a_band_corner_computed_in_floating_point_is_the_corner():
+    from pidpipe.cases import CaseSpec
+    from pidpipe.refine.candidates import Request
+
+    request = Request(800.0000000000001, 4.000000000000006, 28.571428571428573, "verify")
+    assert (request.freq_hz, request.accel_g, request.fill_pct) == (800.0, 4.0, 28.571)
+    case = CaseSpec(request.freq_hz, request.accel_g, request.fill_pct, 200)
+    assert case.case_id == "f800Hz_G4_r28.571pct_rep200"
