@@ -7,8 +7,9 @@ in DIR (``results/verify.csv``): the uniform one (``refine.enabled: false`` and
 ``fidelity.target_relative_sem: 0.05``) and the loop's (``refine.enabled: true``, the grid's
 pilots only). For each it prints
 
-- the wall time on the cores it had and the engine CPU of every case it ran (the loop's runs
-  included), and the CPU of every process (pours too);
+- the wall time on the cores it had and the CPU of every process (pours too), from
+  ``bench_campaign.json``; the engine CPU of every case it ran, the loop's runs included, from
+  the records (``results/cases``, ``results/refine/work/cases``);
 - each design's total C_eq with its 95 % interval, computed the same way for both: the GP
   fitted to the table the designs rest on (``ceq_table_refined.csv`` when the loop ran, else
   ``ceq_table.csv``), the designs optimised on it, the interval from its predictive
@@ -108,10 +109,17 @@ def campaign_summary(work: Path) -> dict:
     verify = pd.read_csv(work / "results" / "verify.csv")
     worst = {env: float(np.nanmax(np.abs(group["z_combined"].to_numpy(dtype=float))))
              for env, group in verify.groupby("environment", sort=False)}
-    engine_cpu = bench.get("engine_cpu_with_refine_s", bench["engine_cpu_s"])
+    # engine CPU from the records themselves: a loop resumed after the benchmark (a larger
+    # budget) adds runs that bench_campaign.json does not count
+    from bench_campaign import case_row
+
+    records = [json.loads(p.read_text()) for folder in ("cases", "refine/work/cases")
+               for p in (work / "results" / folder).glob("*.json")]
+    engine_cpu = round(float(sum(case_row(r)["cpu_s"] for r in records
+                                 if r.get("status") != "failed")), 1)
     figures = {"wall_s": bench["wall_s"], "engine_cpu_s": engine_cpu,
                "cpu_all_processes_s": bench["cpu_all_processes_s"],
-               "cases_run": bench["cases"] + bench.get("refine_runs", 0),
+               "cases_run": len(records),
                "verify_worst_abs_z": round(max(worst.values()), 2),
                "design_half_width_max_pct": round(100 * max(d["half"] for d in designs.values()),
                                                   1)}
