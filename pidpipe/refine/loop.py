@@ -148,9 +148,13 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
         before = _cpu_before(table, round_index)
         verify_cost = sum(float(cost(q)) for q in first_runs)
         if before + verify_cost > settings.max_cpu_s:
-            record = RoundRecord(round_index, intervals, {}, _open_lines(
-                intervals, met, pd.DataFrame(columns=["design", "z", "passes", "point"]),
-                settings, flag_z), cumulative_cpu_s=before)
+            # the budget cannot pay for the new points; the points earlier rounds verified (a
+            # design whose fill and band did not move) are still compared and reported
+            comparison = compare(points, verify_rows(table, round_index), model, flag_z)
+            worst = {design_name(r): worst_abs_z(comparison, design_name(r)) for r in results}
+            record = RoundRecord(round_index, intervals, worst, _open_lines(
+                intervals, met, comparison, settings, flag_z), cumulative_cpu_s=before,
+                comparison=comparison)
             return _finish(BUDGET_SPENT, record, rounds, table, results, intervals, model, on_round)
         table = _run(table, first_runs, round_index, verify, None, cost, save)
         comparison = compare(points, verify_rows(table, round_index), model, flag_z)
@@ -295,8 +299,12 @@ def _open_lines(intervals: list[DesignInterval], met: dict, comparison: pd.DataF
             continue
         mine = comparison[comparison["design"] == name]
         bad = mine[~mine["passes"].astype(bool)]
-        if mine.empty:
+        unrun = mine[~np.isfinite(mine["dem_ns_m"].to_numpy(dtype=float))] \
+            if "dem_ns_m" in mine.columns else mine
+        if mine.empty or len(unrun) == len(mine):
             lines.append(f"{name}: not verified")
+        elif not unrun.empty:
+            lines.append(f"{name}: not verified at {', '.join(unrun['point'])}")
         elif not bad.empty:
             shown = ", ".join(_point_text(p, z, dem) for p, z, dem in
                               zip(bad["point"], bad["z"], bad["dem_ns_m"]))

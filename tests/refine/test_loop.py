@@ -167,3 +167,37 @@ def test_a_design_whose_whole_sphere_fill_leaves_the_domain_gets_a_case_there_an
     # every design now lies at the domain's new lowest fill, and pours as 5 spheres there
     assert all(poured_fill(i.fill_pct, 21) == (23.81, 5) for i in outcome.intervals)
     assert all(z <= FLAG_Z for z in outcome.rounds[-1].worst_z.values())
+
+
+def test_a_budget_stop_still_reports_the_designs_whose_points_were_verified(whole):
+    # the finished loop's table without one environment's verifying runs, and a budget that
+    # cannot pay for them again: the other environment's designs keep their |z|, only the
+    # first's are open
+    _, outcome = whole
+    table = outcome.table
+    last = outcome.rounds[-1].comparison
+    environment = last["design"].str.split("/").str[0]
+    first = environment.iloc[0]
+    theirs = set(last.loc[environment == first, "case_key"])
+    assert theirs.isdisjoint(last.loc[environment != first, "case_key"])
+    dropped = table[~((table["source"] == VERIFY_SOURCE) & table["case_key"].isin(theirs))]
+    # the resumed loop decides the last round again: what it had spent before that round and
+    # what its verifying runs cost, less a little
+    n = int(table["refine_round"].max())
+    spent = table.loc[(table["refine_round"] < n) | ((table["refine_round"] == n)
+                                                     & (table["action"] == "verify")),
+                      "planned_cpu_s"].sum()
+    budget = float(spent) - 1e-6
+    settings = RefineSettings(interval_fraction=0.10, max_cpu_s=budget, cases_per_round=3,
+                              max_rounds=50)
+    engine = FakeEngine()
+    resumed = run(engine, dropped, settings)
+    assert resumed.stopped_by == BUDGET_SPENT and engine.requests == []
+    mine = [line for line in resumed.open if line.startswith(first + "/")]
+    assert mine and all(line.endswith(": not verified") for line in mine)
+    # the other environment's designs are compared with the runs they have (the old record
+    # said "not verified" for every design at a budget stop)
+    others = {d: z for d, z in resumed.rounds[-1].worst_z.items() if not d.startswith(first + "/")}
+    assert others and all(np.isfinite(z) for z in others.values())
+    assert not any("not verified" in line for line in resumed.open
+                   if not line.startswith(first + "/"))
