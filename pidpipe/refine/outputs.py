@@ -70,9 +70,8 @@ def write_table(table: pd.DataFrame, path: str | Path) -> Path:
     return write_atomic(path, lambda tmp: table.to_csv(tmp, index=False))
 
 
-def read_table(path: str | Path) -> pd.DataFrame:
-    """Read a table the loop wrote (:func:`pidpipe.refine.table.from_csv`)."""
-    return from_csv(path)
+#: Read a table the loop wrote (:func:`pidpipe.refine.table.from_csv`).
+read_table = from_csv
 
 
 def summary_record(outcome, rounds: pd.DataFrame | None = None) -> dict:

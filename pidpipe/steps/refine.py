@@ -36,6 +36,7 @@ import pandas as pd
 
 from pidpipe.errors import PidpipeError
 from pidpipe.files import write_atomic
+from pidpipe.steps.params import REFINED_TABLE
 from pidpipe.steps.refine_engine import CaseEngine, Plan, RunsNeeded
 
 logger = logging.getLogger("pidpipe.refine")
@@ -69,7 +70,7 @@ def refine_campaign(config: dict, grid_table: str | Path, refine_dir: str | Path
     """
     engine = CaseEngine.from_config(config, Path(refine_dir) / "work", cores)
     outcome = _run_loop(config, grid_table, refine_dir, engine, on_round)
-    finish_refine(refine_dir, Path(refine_dir).parent / "ceq_table_refined.csv")
+    finish_refine(refine_dir, Path(refine_dir).parent / Path(REFINED_TABLE).name)
     return outcome, engine
 
 
