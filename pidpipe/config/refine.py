@@ -14,6 +14,10 @@ from dataclasses import dataclass
 from pidpipe.errors import ConfigError
 
 
+#: Where the workflow runs the loop's cases (``refine.run_cases``).
+RUN_CASES = ("auto", "in_step", "as_jobs")
+
+
 @dataclass(frozen=True)
 class RefineSettings:
     """How the refinement loop runs and when it stops.
@@ -33,6 +37,13 @@ class RefineSettings:
     enabled : bool
         Whether the workflow's campaign runs the loop after the grid's pilots and designs on
         its table (``results/ceq_table_refined.csv``); ``pidpipe refine`` runs it either way.
+    run_cases : str
+        Where the workflow runs the loop's cases: ``in_step`` (the step's job runs them, up to
+        its threads at a time, and goes on to the next round: one job for the whole loop),
+        ``as_jobs`` (each case a Snakemake job of its own, then a new step: what spreads the
+        cases over a cluster), or ``auto`` (:meth:`runs_in_step`: ``in_step`` for the compiled
+        DEM, whose cases take seconds, ``as_jobs`` for LIGGGHTS, whose cases take minutes).
+        It does not change what the loop decides or runs.
     """
 
     interval_fraction: float = 0.10
@@ -40,6 +51,7 @@ class RefineSettings:
     cases_per_round: int = 4
     max_rounds: int = 20
     enabled: bool = False
+    run_cases: str = "auto"
 
     def __post_init__(self) -> None:
         problems = self.problems()
@@ -61,6 +73,9 @@ class RefineSettings:
         if not isinstance(self.enabled, bool):
             lines.append(f"config key refine.enabled = {self.enabled!r} is not allowed: it must "
                          "be true or false")
+        if self.run_cases not in RUN_CASES:
+            lines.append(f"config key refine.run_cases = {self.run_cases!r} is not allowed: it "
+                         f"must be one of {', '.join(RUN_CASES)}")
         for key, least in (("cases_per_round", 1), ("max_rounds", 1)):
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
@@ -75,10 +90,21 @@ class RefineSettings:
         return cls(interval_fraction=float(section["interval_fraction"]),
                    max_cpu_s=float(section["max_cpu_s"]),
                    cases_per_round=section["cases_per_round"], max_rounds=section["max_rounds"],
-                   enabled=section.get("enabled", False))
+                   enabled=section.get("enabled", False),
+                   run_cases=section.get("run_cases", "auto"))
+
+    def runs_in_step(self, engine: str) -> bool:
+        """Whether the workflow's step runs the loop's cases itself (``run_cases``; ``auto``:
+        for the ``dem`` engine only). On the DEM's default campaign the cases as jobs of their
+        own took 183 s of jobs for 39 s of shaking: each job starts Python and loads the kernel
+        (docs/explanation/refine.md)."""
+        if self.run_cases == "auto":
+            return engine == "dem"
+        return self.run_cases == "in_step"
 
     def as_params(self) -> dict:
         """The plain dict a rule's ``params`` carries (and :meth:`from_config` reads back)."""
         return {"refine": {"interval_fraction": self.interval_fraction,
                            "max_cpu_s": self.max_cpu_s, "cases_per_round": self.cases_per_round,
-                           "max_rounds": self.max_rounds, "enabled": self.enabled}}
+                           "max_rounds": self.max_rounds, "enabled": self.enabled,
+                           "run_cases": self.run_cases}}

@@ -96,8 +96,10 @@ def refine_params(config: dict) -> dict:
 
     depends = stage_config(config, "case")
     depends["engine"] = config.get("engine", "liggghts")
-    for key in ("environments", "optimisation", "budget", "surrogate", "refine"):
+    for key in ("environments", "optimisation", "budget", "surrogate"):
         depends[key] = config[key]
+    # where the cases run does not change what the loop decides or runs
+    depends["refine"] = {k: v for k, v in config["refine"].items() if k != "run_cases"}
     depends["verify"] = {"flag_z": config["verify"]["flag_z"]}
     return depends
 

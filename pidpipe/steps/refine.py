@@ -20,7 +20,8 @@ with an engine that runs nothing; the loop decides its round as before, finds th
 records it has, and stops at the first runs it lacks; the step names them, Snakemake runs each
 as a job (:func:`run_refine_plan`, up to ``--cores`` at a time, on a cluster as jobs of their
 own), and the next step continues. A round takes at most two steps (its verifying runs, then
-its cases). The loop's decisions depend only on its table, so a killed campaign resumes with
+its cases). With ``refine.run_cases: in_step`` (the DEM's default) the step runs the cases
+itself, round after round, and one step is the whole loop. The loop's decisions depend only on its table, so a killed campaign resumes with
 only the missing runs.
 """
 
@@ -68,15 +69,19 @@ def refine_campaign(config: dict, grid_table: str | Path, refine_dir: str | Path
     (Outcome, CaseEngine)
         The loop's outcome, and the engine (its ``runs``: the cases it shook in this call).
     """
-    engine = CaseEngine.from_config(config, Path(refine_dir) / "work", cores)
-    outcome = _run_loop(config, grid_table, refine_dir, engine, on_round)
+    with CaseEngine.from_config(config, Path(refine_dir) / "work", cores) as engine:
+        outcome = _run_loop(config, grid_table, refine_dir, engine, on_round)
     finish_refine(refine_dir, Path(refine_dir).parent / Path(REFINED_TABLE).name)
     return outcome, engine
 
 
 def refine_step(config: dict, grid_table: str | Path, refine_dir: str | Path,
-                step_path: str | Path) -> dict:
+                step_path: str | Path, cores: int = 1) -> dict:
     """One step of the workflow's loop: run the loop until it stops or lacks runs; say which.
+
+    With ``refine.run_cases`` in_step (:meth:`pidpipe.config.refine.RefineSettings.runs_in_step`)
+    the step runs the cases itself, ``cores`` at a time, and lacks none: one step is the whole
+    loop.
 
     Writes ``step_path`` (JSON): ``{"status": "done", "stopped_by": ..., "open": [...]}`` or
     ``{"status": "runs needed", "runs": [case ids]}``, the plans of those runs being in
@@ -90,21 +95,30 @@ def refine_step(config: dict, grid_table: str | Path, refine_dir: str | Path,
         As :func:`refine_campaign`.
     step_path : path
         The step's file (``results/refine/steps/<n>.json``).
+    cores : int
+        Cases run at most this many at a time when the step runs them.
 
     Returns
     -------
     dict
         What the step wrote.
     """
-    engine = CaseEngine.from_config(config, Path(refine_dir) / "work", run_missing=False)
+    from pidpipe.config.refine import RefineSettings
+
+    in_step = RefineSettings.from_config(config).runs_in_step(config.get("engine", "liggghts"))
+    engine = CaseEngine.from_config(config, Path(refine_dir) / "work", cores,
+                                    run_missing=in_step)
     try:
-        outcome = _run_loop(config, grid_table, refine_dir, engine, _log_round)
+        with engine:
+            outcome = _run_loop(config, grid_table, refine_dir, engine, _log_round)
     except RunsNeeded as needed:
         step = {"status": STEP_RUNS_NEEDED, "runs": needed.case_ids}
         logger.info("refine: %d run(s) needed: %s", len(needed.case_ids),
                     ", ".join(needed.case_ids))
     else:
         step = {"status": STEP_DONE, "stopped_by": outcome.stopped_by, "open": outcome.open}
+        if in_step:
+            step["runs_in_step"] = list(engine.runs)
         logger.info("refine: stopped: %s", outcome.stopped_by)
         for line in outcome.open:
             logger.info("refine: open: %s", line)

@@ -41,8 +41,10 @@ Every record is written under ``work_dir/cases/<case id>.json``; a request whose
 there (made with the same plan) is read, not run again, so that a loop killed inside a round's
 ``measure`` resumes without rerunning the cases it finished. Two ways to run the rest:
 
-- in this process (``pidpipe refine``): the requests of one call run up to ``cores`` at a time,
-  each in a worker process;
+- in this process (``pidpipe refine``, or a workflow step with ``refine.run_cases: in_step``):
+  the requests of one call run up to ``cores`` at a time in worker processes that live as long
+  as the engine (:meth:`close`), so Python starts and the engine loads once per loop, not per
+  case;
 - as workflow jobs (``snakemake refine``, ``run_missing=False``): the engine runs nothing; when a
   call lacks records it writes each missing plan to ``work_dir/plans/<case id>.json``
   (:meth:`Plan.write`) and raises :class:`RunsNeeded` naming them, and the workflow runs each
@@ -195,6 +197,33 @@ class CaseEngine:
                                    f"it: run benchmarks/bench_cells.py --cost --engine {engine}")
         self.runs: list[str] = []
         self.measured = {"shake_cpu_s": 0.0, "pour_cpu_s": 0.0, "pour_wall_s": 0.0}
+        self._pool: ProcessPoolExecutor | None = None
+
+    def _workers(self) -> ProcessPoolExecutor:
+        """The worker processes, started at the first call that needs them and kept until
+        :meth:`close`: each starts Python and loads the engine once for the whole loop."""
+        if self._pool is None:
+            context = multiprocessing.get_context("spawn")
+            self._pool = ProcessPoolExecutor(self.cores, mp_context=context)
+        return self._pool
+
+    def close(self) -> None:
+        """Stop the worker processes (a later call starts new ones)."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def __enter__(self) -> "CaseEngine":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __getstate__(self) -> dict:
+        """What a worker receives: everything but the workers."""
+        state = dict(self.__dict__)
+        state["_pool"] = None
+        return state
 
     @classmethod
     def from_config(cls, config: dict, work_dir: str | Path, cores: int = 1,
@@ -271,9 +300,7 @@ class CaseEngine:
         if not self.run_missing:
             return [record for record, _ in self._stored_or_planned(plans)]
         if self.cores > 1 and len(plans) > 1:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(min(self.cores, len(plans)), mp_context=context) as pool:
-                done = list(pool.map(self._record, plans))
+            done = list(self._workers().map(self._record, plans))
         else:
             done = [self._record(plan) for plan in plans]
         for record, spent in done:
@@ -281,6 +308,8 @@ class CaseEngine:
                 self.runs.append(record.case_id)
                 for key, value in spent.items():
                     self.measured[key] += value
+                logger.info("refine: shook %s: %.1f engine CPU-s, pours %.1f s", record.case_id,
+                            spent["shake_cpu_s"], spent["pour_wall_s"])
         return [record for record, _ in done]
 
     def _stored_or_planned(self, plans: list[Plan]) -> list:

@@ -94,3 +94,40 @@ def refine_run_runtime_min(planned_cpu_s: float, attempt: int = 1) -> int:
     if not math.isfinite(planned_cpu_s) or planned_cpu_s < 0:
         raise ValueError(f"planned CPU must be a finite number >= 0 s, got {planned_cpu_s!r}")
     return max(1, math.ceil((SETUP_S + planned_cpu_s) * MARGIN * attempt / 60.0))
+
+
+#: Minutes a refinement step allows per fit and optimisation of a round (measured 4-12 s on the
+#: DEM's default campaign, docs/explanation/refine.md).
+ROUND_FIT_MIN = 1.0
+
+
+def refine_step_runtime_min(max_cpu_s: float, max_rounds: int, threads: int, runs_cases: bool,
+                            attempt: int = 1) -> int:
+    """The time limit of a refinement step's job, whole minutes.
+
+    A step that only decides refits once: (SETUP_S x MARGIN / 60 + ROUND_FIT_MIN) x attempt. One
+    that runs the loop's cases (``refine.run_cases: in_step``) may spend the loop's whole budget
+    of planned CPU on ``threads`` cores and refit every round: (SETUP_S + max_cpu_s / threads) x
+    MARGIN x attempt / 60 + max_rounds x ROUND_FIT_MIN x attempt.
+
+    Parameters
+    ----------
+    max_cpu_s : float
+        The loop's budget of planned engine CPU (``refine.max_cpu_s``), s.
+    max_rounds : int
+        The loop's rounds at most (``refine.max_rounds``).
+    threads : int
+        The step's cores.
+    runs_cases : bool
+        Whether the step runs the cases itself.
+    attempt : int
+        Snakemake's attempt (1 at first).
+    """
+    if attempt < 1:
+        raise ValueError(f"attempt must be at least 1, got {attempt}")
+    if threads < 1:
+        raise ValueError(f"threads must be at least 1, got {threads}")
+    if not runs_cases:
+        return max(1, math.ceil((SETUP_S * MARGIN / 60.0 + ROUND_FIT_MIN) * attempt))
+    minutes = ((SETUP_S + max_cpu_s / threads) * MARGIN / 60.0 + max_rounds * ROUND_FIT_MIN)
+    return max(1, math.ceil(minutes * attempt))

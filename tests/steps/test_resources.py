@@ -62,3 +62,17 @@ def test_a_refinement_run_gets_its_planned_cpu_with_margin_and_longer_on_a_retry
     assert refine_run_runtime_min(planned, attempt=2) > first
     with pytest.raises(ValueError):
         refine_run_runtime_min(float("nan"))
+
+
+def test_a_refine_step_that_runs_the_cases_has_time_for_the_whole_budget():
+    from pidpipe.steps.resources import (MARGIN, ROUND_FIT_MIN, SETUP_S,
+                                         refine_step_runtime_min)
+
+    deciding = refine_step_runtime_min(3000.0, 20, 1, runs_cases=False)
+    assert deciding == math.ceil(SETUP_S * MARGIN / 60.0 + ROUND_FIT_MIN)
+    running = refine_step_runtime_min(3000.0, 20, 2, runs_cases=True)
+    assert running == math.ceil((SETUP_S + 1500.0) * MARGIN / 60.0 + 20 * ROUND_FIT_MIN)
+    assert refine_step_runtime_min(3000.0, 20, 4, runs_cases=True) < running
+    assert refine_step_runtime_min(3000.0, 20, 2, runs_cases=True, attempt=2) > running
+    with pytest.raises(ValueError):
+        refine_step_runtime_min(3000.0, 20, 0, runs_cases=True)

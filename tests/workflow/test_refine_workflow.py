@@ -1,6 +1,7 @@
 """The campaign with the refinement loop (``refine.enabled``) on the reduced grid, shaken by
-the compiled DEM: the loop runs as Snakemake steps (checkpoints) and jobs, the designs rest on
-its table, and a campaign killed between or within rounds resumes with only the missing runs.
+the compiled DEM: the loop runs as Snakemake steps (checkpoints) and jobs (``refine.run_cases:
+as_jobs``) or in one step (``in_step``, the DEM's default) to the same table, the designs rest
+on its table, and a campaign killed between or within rounds resumes with only the missing runs.
 
 The loop's criterion (1 %) cannot be met in its 3 rounds: it stops at ``refine.max_rounds``,
 having run a few cases of 1 cell x 10 cycles (a minute or two on 2 cores)."""
@@ -20,18 +21,28 @@ REFINE = {"enabled": True, "interval_fraction": 0.01, "max_cpu_s": 15.0, "cases_
           "max_rounds": 3}
 
 
-def _config(workdir) -> None:
+def _config(workdir, run_cases: str) -> None:
     write_config(workdir, engine="dem", fidelity={"pour_engine": "dem"},
-                 surrogate={"method": "gp", "allow_holes": True}, refine=REFINE)
+                 surrogate={"method": "gp", "allow_holes": True},
+                 refine={**REFINE, "run_cases": run_cases})
+
+
+def _campaign(tmp_path_factory, run_cases: str):
+    workdir = tmp_path_factory.mktemp(f"refine_campaign_{run_cases}")
+    _config(workdir, run_cases)
+    run = snakemake(workdir)
+    assert run.returncode == 0, run.stdout[-5000:]
+    return workdir
 
 
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("refine_campaign")
-    _config(workdir)
-    run = snakemake(workdir)
-    assert run.returncode == 0, run.stdout[-5000:]
-    return workdir
+    return _campaign(tmp_path_factory, "as_jobs")
+
+
+@pytest.fixture(scope="module")
+def campaign_in_step(tmp_path_factory):
+    return _campaign(tmp_path_factory, "in_step")
 
 
 #: Columns that differ between two runs of one plan (the machine's timings).
@@ -133,3 +144,37 @@ def test_a_campaign_killed_between_rounds_runs_no_case_again(campaign):
     # the loop's table is ahead of the steps: the second step finds every round's rows
     assert _steps(campaign)[-1]["status"] == "done"
     assert state.read_text() == before
+
+
+def test_one_step_that_runs_the_cases_itself_gives_the_same_table(campaign, campaign_in_step):
+    steps = _steps(campaign_in_step)
+    assert len(steps) == 1 and steps[0]["status"] == "done"
+    assert steps[0]["stopped_by"] == "max rounds reached"
+    # the runs of the campaign whose steps asked for them as jobs (its records: the tests that
+    # kill it rerun what they delete)
+    asked = sorted(p.stem for p in (campaign / "results" / "refine" / "work" / "cases").glob("*.json"))
+    assert sorted(steps[0]["runs_in_step"]) == asked
+    pd.testing.assert_frame_equal(_loop_table(campaign_in_step), _loop_table(campaign))
+    log = (campaign_in_step / "logs" / "refine" / "step1.log").read_text()
+    assert log.count("refine: shook ") == len(asked)
+
+
+def test_a_step_killed_while_running_cases_reruns_only_the_missing_one(campaign_in_step):
+    steps = _steps(campaign_in_step)
+    runs = steps[0]["runs_in_step"]
+    before = _loop_table(campaign_in_step)
+    state = campaign_in_step / "results" / "refine" / "state" / "ceq_table.csv"
+    table = pd.read_csv(state)
+    # killed inside the last round's cases: its rows are not in the loop's table yet, one of
+    # its runs' records is written, the other not
+    last = table["refine_round"].max()
+    last_runs = [r for ids in table.loc[table["refine_round"] == last, "case_id"]
+                 for r in str(ids).split(";") if r in runs]
+    assert len(last_runs) >= 2
+    table[table["refine_round"] < last].to_csv(state, index=False)
+    (campaign_in_step / "results" / "refine" / "work" / "cases" / f"{last_runs[0]}.json").unlink()
+    _kill_after(campaign_in_step, 0)
+    run = snakemake(campaign_in_step)
+    assert run.returncode == 0, run.stdout[-5000:]
+    assert _steps(campaign_in_step)[0]["runs_in_step"] == [last_runs[0]]
+    pd.testing.assert_frame_equal(_loop_table(campaign_in_step), before)

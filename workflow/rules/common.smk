@@ -206,6 +206,22 @@ def get_refine_step_inputs(wildcards):
             "records": [f"results/refine/work/cases/{run}.json" for run in runs]}
 
 
+def refine_runs_in_step():
+    """Whether the loop's step runs its cases itself (refine.run_cases; auto: engine dem)."""
+    return REFINE.runs_in_step(SETTINGS.engine)
+
+
+def get_refine_step_threads(wildcards):
+    """A step's cores: all of the campaign's when it runs the loop's cases, else one."""
+    return workflow.cores if refine_runs_in_step() else 1
+
+
+def get_refine_step_runtime_min(wildcards, attempt, threads):
+    """The time limit of a refine_step job, minutes (pidpipe.steps.resources)."""
+    return cluster_resources.refine_step_runtime_min(
+        REFINE.max_cpu_s, REFINE.max_rounds, threads, refine_runs_in_step(), attempt)
+
+
 def get_refine_run_runtime_min(wildcards, attempt):
     """The time limit of a run_refine_case job, minutes: its plan's planned CPU
     (pidpipe.steps.resources.refine_run_runtime_min); the plan is there once the step that

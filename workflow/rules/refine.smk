@@ -1,7 +1,9 @@
 # Stage 3b (refine.enabled): the design-driven refinement loop after the grid's pilots
 # (pidpipe.refine). Each step is a checkpoint: it asks the loop again from its saved table with
 # an engine that runs nothing, and writes which runs the loop lacks (or that it stopped); each
-# run is a job of its own (up to --cores at a time); the next step continues. The designs then
+# run is a job of its own (up to --cores at a time); the next step continues. With
+# refine.run_cases in_step (auto: the compiled DEM) the step runs the cases itself, on its
+# threads, round after round: one step is the whole loop. The designs then
 # rest on the table the loop's last round fitted (results/ceq_table_refined.csv).
 #   snakemake --cores 2 refine
 
@@ -18,6 +20,9 @@ checkpoint refine_step:
         "logs/refine/step{step}.log",
     benchmark:
         "results/benchmarks/refine/step{step}.tsv"
+    threads: get_refine_step_threads
+    resources:
+        runtime=get_refine_step_runtime_min,
     script:
         "../scripts/refine_step.py"
 
