@@ -55,9 +55,11 @@ from pidpipe.panel.mass import SurrogateEffectiveMass
 from pidpipe.panel.response import response_curve
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
-#: The curves, in table order (``panel_mass_at_g`` only with the m_eff surrogate,
-#: ``panel_largest`` only beside the reported sweep).
-MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass", "panel_mass_at_g", "panel_largest")
+#: The curves, in table order (``panel_mass_at_g`` only with the m_eff surrogate;
+#: ``panel_largest`` and, with the C_eq model's std, ``panel_ceq_*_sd`` only beside the reported
+#: sweep).
+MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass", "panel_mass_at_g", "panel_largest",
+                           "panel_ceq_minus_sd", "panel_ceq_plus_sd")
 #: The sweeps the check runs by default, the reported one first.
 SWEEPS: tuple[str, ...] = ("up", "down")
 #: Redraws of the coupled curve within its standard errors, for its peak's uncertainty.
@@ -267,7 +269,8 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                groups: LayoutGroups, cells_per_group: int, packings: np.ndarray, fill_pct: float,
                force_n: float, damping_ratio: float, freqs_hz, transient_cycles: int,
                measured_cycles: int, block_cycles: int = 2, workers: int = 1,
-               seed: int = 17, sweeps: tuple[str, ...] = SWEEPS) -> ModeCheck:
+               seed: int = 17, sweeps: tuple[str, ...] = SWEEPS,
+               predict_with_uncertainty=None) -> ModeCheck:
     """The coupled mode against the panel model at one modal force (module docstring).
 
     Parameters
@@ -301,6 +304,11 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
     sweeps : tuple of str
         The directions swept, coupled and panel model alike (``up``, ``down``); the first is the
         reported one (its rows come first in the summary).
+    predict_with_uncertainty : callable, optional
+        (f, G, r) -> (mean, std) of C_eq_coupon, N s/m (a Gaussian process's): the reported
+        sweep of ``panel`` is also run with every C_eq at mean - std and mean + std
+        (``panel_ceq_minus_sd``, ``panel_ceq_plus_sd``; fully correlated, as the stage's
+        intervals), the model's own spread.
     """
     represented = Layout(f"{layout.name} (DEM fill)", layout.cells, np.full(layout.cells.size, fill_pct))
     mode = loss.mode
@@ -324,6 +332,11 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
     # the former rule, the largest consistent amplitude at every frequency, beside the reported sweep
     model_rows[sweeps[0]]["panel_largest"] = response_curve(loss, predict, represented, force_n,
                                                             damping_ratio, freqs, sweep="largest")
+    if predict_with_uncertainty is not None:
+        for name, sign in (("panel_ceq_minus_sd", -1.0), ("panel_ceq_plus_sd", 1.0)):
+            model_rows[sweeps[0]][name] = response_curve(
+                loss, _shifted(predict_with_uncertainty, sign), represented, force_n, damping_ratio,
+                freqs, sweep=sweeps[0])
     k = int(packings.shape[0])
     if k != groups.cells.size * cells_per_group:
         raise ValueError(f"{k} packings for {groups.cells.size} groups x {cells_per_group} cells")
@@ -364,6 +377,14 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                         "steps_per_cycle": [row["steps_per_cycle"] for row in coupled[sweeps[0]]],
                         "cpu_s": float(sum(row["cpu_s"] for rows in coupled.values() for row in rows))}}
     return ModeCheck(curves=curves, summary=summary, meta=meta)
+
+
+def _shifted(predict_with_uncertainty, sign: float):
+    """C_eq_coupon at mean + sign x std (not below 0), N s/m."""
+    def predict(freq_hz, accel_g, fill_pct):
+        mean, std = predict_with_uncertainty(freq_hz, accel_g, fill_pct)
+        return np.maximum(np.asarray(mean) + sign * np.asarray(std), 0.0)
+    return predict
 
 
 def _curves(coupled: dict, model_rows: dict) -> pd.DataFrame:

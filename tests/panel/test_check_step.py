@@ -69,7 +69,11 @@ def test_a_tiny_check_runs_end_to_end_and_the_flying_beds_dissipate(tmp_path, ca
     assert meta["layout"]["spheres_per_cell"] == 5                 # 25 % of the poured capacity 21
     assert sum(meta["groups"]["cells"]) == 600 and meta["force_n"] == 1.0
     curves = pd.read_csv(out["curves.csv"])
-    assert set(curves.model) == {"coupled", "panel", "panel_full_mass", "panel_largest"}
+    assert set(curves.model) == {"coupled", "panel", "panel_full_mass", "panel_largest",
+                                 "panel_ceq_minus_sd", "panel_ceq_plus_sd"}     # the GP's std
+    spread = curves[curves.model.str.startswith("panel_ceq")].groupby("model").loss_factor.mean()
+    assert spread["panel_ceq_minus_sd"] < curves[curves.model == "panel"].loss_factor.mean() \
+        < spread["panel_ceq_plus_sd"]
     assert set(curves.sweep) == {"up", "down"} and meta["reported_sweep"] == "up"
     assert len(curves[(curves.model == "coupled") & (curves.sweep == "down")]) == 3
     coupled = curves[(curves.model == "coupled") & (curves.sweep == "up")]
