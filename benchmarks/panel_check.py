@@ -9,7 +9,8 @@ the default grid), runs the modal stage for ``panel.check``'s environment (its l
 bootstrap refits), then the DEM check of its lowest mode in the band
 (:func:`pidpipe.steps.panel.mode_check_from_config`): the checked layout's cells in groups
 along the mode shape, compiled-DEM cells poured by the compiled DEM (as the table's were),
-swept in frequency at one modal force. Prints each curve's peak and the panel models'
+swept in frequency at one modal force by continuation, up (reported) and down, coupled host and
+panel model alike. Prints each curve's peak and the panel models'
 differences, the groups, the force and the stage's loss factor of the layout as designed, and
 the CPU; records them as ``panel_check``. ``--set panel.check.KEY=VALUE`` changes the check's
 size (groups, cells_per_group, freq_points, transient_cycles, measured_cycles) or its force.
@@ -73,7 +74,10 @@ def main() -> None:
                                     str(workdir / "packings"), args.workers)
     for name, frame in (("curves.csv", result.curves), ("summary.csv", result.summary)):
         frame.to_csv(workdir / name, index=False)
-    meta, summary = result.meta, result.summary.set_index("model")
+    meta = result.meta
+    reported = meta["reported_sweep"]
+    by_sweep = {sweep: frame.set_index("model") for sweep, frame in result.summary.groupby("sweep")}
+    summary = by_sweep[reported]
     designs = study.designs
     row = designs[(designs.design == check.design) & (designs.layout == check.layout)].iloc[0]
     groups, layout, designed = meta["groups"], meta["layout"], meta["designed"]
@@ -92,7 +96,7 @@ def main() -> None:
     print("\n".join(summary_lines(result.summary)))
     coupled_cpu = meta["coupled"]["cpu_s"]
     print(f"CPU: modal stage {stage_cpu:.1f} s, pours {sum(meta['packings']['pour_cpu_s'].values()):.1f} s, "
-          f"coupled runs {coupled_cpu:.1f} s ({len(meta['frequencies_hz'])} frequencies x "
+          f"coupled runs {coupled_cpu:.1f} s ({len(meta['sweeps'])} sweeps x {len(meta['frequencies_hz'])} frequencies x "
           f"{meta['coupled']['transient_cycles']} + {meta['coupled']['measured_cycles']} cycles, "
           f"{len(groups['cells']) * groups['dem_cells_per_group']} cells)")
     print(f"curves and summary: {workdir}")
@@ -103,13 +107,23 @@ def main() -> None:
                "designed_eta_total": designed["eta_total"], "designed_accel_g": designed["accel_g"],
                "stage_cpu_s": round(stage_cpu, 2), "coupled_cpu_s": round(coupled_cpu, 2)}
     figures["panel_particle_loss_factor_at_coupled_peak"] = summary.loc["coupled", "panel_particle_loss_factor"]
-    for model in summary.index:
-        peak = summary.loc[model]
-        figures.update({f"{model}_peak_freq_hz": peak.peak_freq_hz,
-                        f"{model}_peak_amplitude_um": 1e6 * peak.peak_amplitude_m,
-                        f"{model}_peak_accel_g": peak.peak_accel_g,
-                        f"{model}_peak_loss_factor": peak.peak_loss_factor,
-                        f"{model}_peak_particle_loss_factor": peak.peak_particle_loss_factor})
+    figures["reported_sweep"] = reported
+    for sweep, frame in by_sweep.items():
+        suffix = "" if sweep == reported else f"_{sweep}"      # the reported sweep's keys unsuffixed
+        for model in frame.index:
+            peak = frame.loc[model]
+            name = f"{model}{suffix}"
+            figures.update({f"{name}_peak_freq_hz": peak.peak_freq_hz,
+                            f"{name}_peak_amplitude_um": 1e6 * peak.peak_amplitude_m,
+                            f"{name}_peak_accel_g": peak.peak_accel_g,
+                            f"{name}_peak_loss_factor": peak.peak_loss_factor,
+                            f"{name}_peak_particle_loss_factor": peak.peak_particle_loss_factor,
+                            f"{name}_max_solutions": int(peak.max_solutions)})
+            if model == "coupled":
+                figures.update({f"{name}_peak_freq_hz_sd": peak.peak_freq_hz_sd,
+                                f"{name}_peak_amplitude_um_sd": 1e6 * peak.peak_amplitude_m_sd,
+                                f"{name}_peak_loss_factor_sd": peak.peak_loss_factor_sd,
+                                f"{name}_panel_particle_loss_factor": peak.panel_particle_loss_factor})
     record("panel_check", figures, notes=f"load average {load_average()}",
            command=command_line())
 

@@ -16,21 +16,27 @@ The compiled DEM cells hold one number of spheres: every group is run at the lay
 common count n (:func:`check_fill`), and the panel model is evaluated on the same cells at the
 fill of n spheres (the *represented* layout; its fill clipped to the C_eq model's domain).
 
-At every frequency of the sweep the coupled host runs ``transient_cycles`` (from the panel
-model's steady state there) and ``measured_cycles``, reduced as the host check reduces its
-points (:mod:`pidpipe.loop.coupled_sweep`): |q| and its standard error over blocks of cycles,
-the antinode's G, the loss factor eta = (D_h + sum S D_p) / (pi k |q|^2) and its particle part,
-the spheres' force as m_eff and c_eff, steadiness and the energy balance. The panel model
-(:func:`pidpipe.panel.response.response_curve`) is swept at the same frequencies: ``panel``
-with the stage's modal mass (the m_eff surrogate's when given, else the bed's mass) and
-``panel_full_mass`` with the beds' whole mass, and, with the m_eff surrogate,
-``panel_mass_at_g`` with its mass read at each amplitude's G (not at the band's middle). Each
-curve's peak (:mod:`pidpipe.loop.compare`) gives the comparison: peak frequency, amplitude and
-loss factor. Where the panel model has
-several consistent amplitudes (C_eq falling with G makes the response fold) it takes the
-largest, and the coupled host may settle on another branch; so the panel model's dashpot is also
-read in each coupled state (its f and G: ``panel_ceq_ns_m``, ``panel_particle_loss_factor``),
-which compares the C_eq model with the DEM branch for branch.
+Both are swept in frequency the way a structure is, by continuation
+(:mod:`pidpipe.panel.branches`): up (the reported sweep) and down, the first frequency from rest,
+every other one from the state reached at the one before -- the coupled host from the previous
+run's last-cycle amplitude (:func:`coupled_continuation`; its spheres from their settled packings),
+the panel model from the previous consistent amplitude. Where C_eq falls with G the panel model's
+response folds (up to three consistent amplitudes), and a sweep stays on its branch until the
+branch ends, then jumps, as the coupled host would; so each panel curve is compared with the
+coupled curve of its own sweep. At every frequency the coupled host runs ``transient_cycles``
+and ``measured_cycles``, reduced as the host check reduces its points
+(:mod:`pidpipe.loop.coupled_sweep`): |q| and its standard error over blocks of cycles, the
+antinode's G, the loss factor eta = (D_h + sum S D_p) / (pi k |q|^2) and its particle part, the
+spheres' force as m_eff and c_eff, steadiness and the energy balance. The panel model
+(:func:`pidpipe.panel.response.response_curve`) is swept at the same frequencies: ``panel`` with
+the stage's modal mass (the m_eff surrogate's when given, else the bed's mass) and
+``panel_full_mass`` with the beds' whole mass, and, with the m_eff surrogate, ``panel_mass_at_g``
+with its mass read at each amplitude's G (not at the band's middle); ``panel_largest``, beside
+the reported sweep, takes the largest consistent amplitude at every frequency (the rule before
+continuation). Each curve's peak (:mod:`pidpipe.loop.compare`) gives the comparison: peak
+frequency, amplitude and loss factor. The panel model's dashpot is also read in each coupled
+state (its f and G: ``panel_ceq_ns_m``, ``panel_particle_loss_factor``), which compares the C_eq
+model with the DEM state for state, whatever branch either is on.
 """
 
 from __future__ import annotations
@@ -43,13 +49,19 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.loop.compare import peak_with_uncertainty, redraw, relative_difference
+from pidpipe.panel.branches import sweep_order
 from pidpipe.panel.loss import Layout, ModalLoss
 from pidpipe.panel.mass import SurrogateEffectiveMass
 from pidpipe.panel.response import response_curve
 from pidpipe.physics.contact import STANDARD_GRAVITY_M_S2
 
-#: The curves, in table order (``panel_mass_at_g`` only with the m_eff surrogate).
-MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass", "panel_mass_at_g")
+#: The curves, in table order (``panel_mass_at_g`` only with the m_eff surrogate;
+#: ``panel_largest`` and, with the C_eq model's std, ``panel_ceq_*_sd`` only beside the reported
+#: sweep).
+MODELS: tuple[str, ...] = ("coupled", "panel", "panel_full_mass", "panel_mass_at_g", "panel_largest",
+                           "panel_ceq_minus_sd", "panel_ceq_plus_sd")
+#: The sweeps the check runs by default, the reported one first.
+SWEEPS: tuple[str, ...] = ("up", "down")
 #: Redraws of the coupled curve within its standard errors, for its peak's uncertainty.
 PEAK_DRAWS = 200
 
@@ -145,7 +157,9 @@ def coupled_point(scene, packings: np.ndarray, run: CheckRun, freq_hz: float,
     dict
         ``freq_hz``, ``amplitude_m``, ``accel_g``, ``loss_factor``, ``particle_loss_factor``,
         ``m_eff_kg``, ``c_eff_ns_m`` and their ``*_sem`` (blocks of cycles), ``steady``,
-        ``balance_residual_fraction``, ``steps_per_cycle``, ``timestep_s``, ``cpu_s``.
+        ``balance_residual_fraction``, ``steps_per_cycle``, ``timestep_s``, ``cpu_s``, and
+        ``end_amplitude`` (the last cycle's first-harmonic q, complex, m: where the next
+        frequency of a sweep starts).
     """
     from pidpipe.dem.from_scene import dem_scene
     from pidpipe.dem.host_drive import CellGroups, HostDrive, effective_mass_and_damping, run_host_groups
@@ -180,23 +194,54 @@ def coupled_point(scene, packings: np.ndarray, run: CheckRun, freq_hz: float,
     row["steady"] = bool(sigmas <= STEADY_SIGMAS or abs(first[0] - second[0]) <= STEADY_RELATIVE * row["amplitude_m"])
     flows = np.abs(out["force_work_j"]) + out["host_damping_j"] + out["particle_dissipation_j"]
     row["balance_residual_fraction"] = float(np.max(np.abs(out["balance_residual_j"]) / flows))
-    row.update(steps_per_cycle=out["steps_per_cycle"], timestep_s=out["timestep_s"], cpu_s=out["cpu_s"])
+    row.update(steps_per_cycle=out["steps_per_cycle"], timestep_s=out["timestep_s"], cpu_s=out["cpu_s"],
+               end_amplitude=complex(out["displacement"][-1]))
     return row
 
 
-def _run_job(job: tuple) -> dict:
-    return coupled_point(*job)
+def coupled_continuation(scene, packings: np.ndarray, run: CheckRun, freqs_hz, sweep: str
+                         ) -> list[dict]:
+    """The coupled mode swept in frequency by continuation, one run after another.
 
+    The frequencies are visited in ``sweep`` order (:func:`pidpipe.panel.branches.sweep_order`:
+    ``up`` ascending, ``down`` descending); the first starts from rest (q = 0), every other one
+    from the first-harmonic amplitude of the last cycle before it (``end_amplitude``), the
+    host's displacement and velocity at that amplitude and the new frequency. The spheres start
+    each run from their settled packings (the runs do not hand on the beds' state; the beds
+    reach their steady motion within the transient cycles, the host's amplitude is what carries
+    the branch).
 
-def coupled_sweep(scene, packings: np.ndarray, run: CheckRun, freqs_hz, starts, workers: int = 1
-                  ) -> list[dict]:
-    """:func:`coupled_point` at every frequency, ``workers`` at a time, in frequency order."""
+    Returns
+    -------
+    list of dict
+        :func:`coupled_point`'s rows in ascending frequency, each with ``sweep`` and
+        ``start_amplitude_m`` (|q| it started from), without ``end_amplitude``.
+    """
+    freqs = np.asarray(freqs_hz, dtype=float)
     packings = np.ascontiguousarray(packings, dtype=float)
-    jobs = [(scene, packings, run, float(f), complex(s)) for f, s in zip(freqs_hz, starts)]
+    rows: list[dict | None] = [None] * freqs.size
+    start = 0j
+    for index in sweep_order(freqs, sweep):
+        row = coupled_point(scene, packings, run, float(freqs[index]), start)
+        row.update(sweep=sweep, start_amplitude_m=abs(start))
+        start = row.pop("end_amplitude")
+        rows[index] = row
+    return rows
+
+
+def _run_sweep(job: tuple) -> list[dict]:
+    return coupled_continuation(*job)
+
+
+def coupled_sweeps(scene, packings: np.ndarray, run: CheckRun, freqs_hz, sweeps, workers: int = 1
+                   ) -> dict[str, list[dict]]:
+    """:func:`coupled_continuation` in each direction of ``sweeps``, ``workers`` sweeps at a time
+    (a sweep's runs follow one another)."""
+    jobs = [(scene, packings, run, np.asarray(freqs_hz, dtype=float), sweep) for sweep in sweeps]
     if workers <= 1 or len(jobs) <= 1:
-        return [_run_job(job) for job in jobs]
-    with ProcessPoolExecutor(max_workers=int(workers)) as pool:
-        return list(pool.map(_run_job, jobs))
+        return {job[-1]: _run_sweep(job) for job in jobs}
+    with ProcessPoolExecutor(max_workers=min(int(workers), len(jobs))) as pool:
+        return dict(zip(sweeps, pool.map(_run_sweep, jobs)))
 
 
 @dataclass
@@ -224,7 +269,8 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                groups: LayoutGroups, cells_per_group: int, packings: np.ndarray, fill_pct: float,
                force_n: float, damping_ratio: float, freqs_hz, transient_cycles: int,
                measured_cycles: int, block_cycles: int = 2, workers: int = 1,
-               seed: int = 17) -> ModeCheck:
+               seed: int = 17, sweeps: tuple[str, ...] = SWEEPS,
+               predict_with_uncertainty=None) -> ModeCheck:
     """The coupled mode against the panel model at one modal force (module docstring).
 
     Parameters
@@ -252,21 +298,45 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
         The sweep.
     transient_cycles, measured_cycles, block_cycles : int
     workers : int
-        Coupled runs at a time.
+        Coupled sweeps at a time (a sweep's frequencies run one after another).
     seed : int
         Of the coupled peak's redraws.
+    sweeps : tuple of str
+        The directions swept, coupled and panel model alike (``up``, ``down``); the first is the
+        reported one (its rows come first in the summary).
+    predict_with_uncertainty : callable, optional
+        (f, G, r) -> (mean, std) of C_eq_coupon, N s/m (a Gaussian process's): the reported
+        sweep of ``panel`` is also run with every C_eq at mean - std and mean + std
+        (``panel_ceq_minus_sd``, ``panel_ceq_plus_sd``; fully correlated, as the stage's
+        intervals), the model's own spread.
     """
     represented = Layout(f"{layout.name} (DEM fill)", layout.cells, np.full(layout.cells.size, fill_pct))
     mode = loss.mode
     stiffness = mode.omega**2 * mode.modal_mass_kg
     structural = 2.0 * damping_ratio * math.sqrt(stiffness * mode.modal_mass_kg)
     freqs = np.asarray(freqs_hz, dtype=float)
-    model_rows = {"panel": response_curve(loss, predict, represented, force_n, damping_ratio, freqs),
-                  "panel_full_mass": response_curve(full_mass, predict, represented, force_n,
-                                                    damping_ratio, freqs)}
-    if isinstance(loss.effective_mass_kg, SurrogateEffectiveMass):
-        model_rows["panel_mass_at_g"] = response_curve(loss, predict, represented, force_n,
-                                                       damping_ratio, freqs, mass_follows_accel=True)
+    if not sweeps or any(sweep not in SWEEPS for sweep in sweeps):
+        raise ValueError(f"sweeps = {tuple(sweeps)!r}: each one of {', '.join(SWEEPS)}")
+    with_mass_at_g = isinstance(loss.effective_mass_kg, SurrogateEffectiveMass)
+    model_rows = {}
+    for sweep in sweeps:
+        model_rows[sweep] = {
+            "panel": response_curve(loss, predict, represented, force_n, damping_ratio, freqs,
+                                    sweep=sweep),
+            "panel_full_mass": response_curve(full_mass, predict, represented, force_n,
+                                              damping_ratio, freqs, sweep=sweep)}
+        if with_mass_at_g:
+            model_rows[sweep]["panel_mass_at_g"] = response_curve(
+                loss, predict, represented, force_n, damping_ratio, freqs, mass_follows_accel=True,
+                sweep=sweep)
+    # the former rule, the largest consistent amplitude at every frequency, beside the reported sweep
+    model_rows[sweeps[0]]["panel_largest"] = response_curve(loss, predict, represented, force_n,
+                                                            damping_ratio, freqs, sweep="largest")
+    if predict_with_uncertainty is not None:
+        for name, sign in (("panel_ceq_minus_sd", -1.0), ("panel_ceq_plus_sd", 1.0)):
+            model_rows[sweeps[0]][name] = response_curve(
+                loss, _shifted(predict_with_uncertainty, sign), represented, force_n, damping_ratio,
+                freqs, sweep=sweeps[0])
     k = int(packings.shape[0])
     if k != groups.cells.size * cells_per_group:
         raise ValueError(f"{k} packings for {groups.cells.size} groups x {cells_per_group} cells")
@@ -277,9 +347,9 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                    cells=tuple(float(n) for n in groups.cells),
                    transient_cycles=int(transient_cycles), measured_cycles=int(measured_cycles),
                    block_cycles=int(block_cycles))
-    starts = [row["amplitude"] for row in model_rows["panel"]]
-    coupled = coupled_sweep(scene, packings, run, freqs, starts, workers)
-    for row in coupled:        # the panel model's dashpot in the coupled state (same f and G)
+    coupled = coupled_sweeps(scene, packings, run, freqs, sweeps, workers)
+    for row in (row for rows in coupled.values() for row in rows):
+        # the panel model's dashpot in the coupled state (same f and G)
         c_p = float(loss.damping_ns_m(predict, represented, np.array([row["accel_g"]]),
                                       freq_hz=row["freq_hz"])[0])
         row["panel_ceq_ns_m"] = c_p
@@ -300,72 +370,94 @@ def check_mode(scene, loss: ModalLoss, full_mass: ModalLoss, predict, layout: La
                        "dem_cells_per_group": int(cells_per_group)},
             "modal_mass_kg": {"panel": loss.modal_mass_kg(represented),
                               "panel_full_mass": full_mass.modal_mass_kg(represented)},
+            "sweeps": list(sweeps), "reported_sweep": sweeps[0],
             "coupled": {"transient_cycles": int(transient_cycles),
                         "measured_cycles": int(measured_cycles),
-                        "steps_per_cycle": [row["steps_per_cycle"] for row in coupled],
-                        "cpu_s": float(sum(row["cpu_s"] for row in coupled))}}
+                        "start": "rest at the sweep's first frequency, then the previous one's state",
+                        "steps_per_cycle": [row["steps_per_cycle"] for row in coupled[sweeps[0]]],
+                        "cpu_s": float(sum(row["cpu_s"] for rows in coupled.values() for row in rows))}}
     return ModeCheck(curves=curves, summary=summary, meta=meta)
 
 
-def _curves(coupled: list[dict], model_rows: dict) -> pd.DataFrame:
-    rows = [{"model": "coupled", **{k: v for k, v in row.items() if k != "force_n"}, "n_solutions": 1}
-            for row in coupled]
-    for model, curve in model_rows.items():
-        rows += [{"model": model, **{k: v for k, v in row.items() if k != "amplitude"},
-                  "steady": True} for row in curve]
+def _shifted(predict_with_uncertainty, sign: float):
+    """C_eq_coupon at mean + sign x std (not below 0), N s/m."""
+    def predict(freq_hz, accel_g, fill_pct):
+        mean, std = predict_with_uncertainty(freq_hz, accel_g, fill_pct)
+        return np.maximum(np.asarray(mean) + sign * np.asarray(std), 0.0)
+    return predict
+
+
+def _curves(coupled: dict, model_rows: dict) -> pd.DataFrame:
+    rows = []
+    for sweep, curve in coupled.items():
+        rows += [{"model": "coupled", **{k: v for k, v in row.items() if k != "force_n"},
+                  "branch": sweep, "n_solutions": 1} for row in curve]
+        for model, curve in model_rows[sweep].items():
+            # branch: how the curve picks its amplitudes (the sweep, or "largest")
+            rows += [{"model": model, **{k: v for k, v in row.items() if k != "amplitude"},
+                      "branch": row["sweep"], "sweep": sweep, "steady": True} for row in curve]
     return pd.DataFrame(rows)
 
 
 def _summary(curves: pd.DataFrame, seed: int) -> pd.DataFrame:
-    rows, reference = [], None
-    for model in MODELS:
-        curve = curves[curves.model == model]
-        if curve.empty:
-            continue
-        f = curve.freq_hz.to_numpy()
-        draws = (None, None)
-        if model == "coupled":
-            draws = (redraw(curve.amplitude_m, curve.amplitude_m_sem, PEAK_DRAWS, seed),
-                     redraw(curve.loss_factor, curve.loss_factor_sem, PEAK_DRAWS, seed + 1))
-        peak = peak_with_uncertainty(f, curve.amplitude_m.to_numpy(), curve.loss_factor.to_numpy(), *draws)
-        omega = 2.0 * math.pi * peak["peak_freq_hz"]
-        row = {"model": model, **peak,
-               "peak_accel_g": peak["peak_amplitude_m"] * omega**2 / STANDARD_GRAVITY_M_S2,
-               "peak_particle_loss_factor": float(np.interp(peak["peak_freq_hz"], f,
-                                                            curve.particle_loss_factor)),
-               "all_steady": bool(curve.steady.all()),
-               "max_solutions": int(curve.n_solutions.max()) if "n_solutions" in curve else 1}
-        if reference is None:
-            # the panel model's particle loss factor in the coupled peak's state (f and G)
-            panel = float(np.interp(peak["peak_freq_hz"], f, curve.panel_particle_loss_factor))
-            row.update(panel_particle_loss_factor=panel,
-                       particle_loss_factor_rel_diff=panel / row["peak_particle_loss_factor"] - 1.0,
-                       m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f, curve.m_eff_kg)),
-                       panel_m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f,
-                                                              curve.panel_m_eff_kg)))
-            reference = row
-        else:
-            amp = relative_difference(row["peak_amplitude_m"], row["peak_amplitude_m_sd"],
-                                      reference["peak_amplitude_m"], reference["peak_amplitude_m_sd"])
-            eta = relative_difference(row["peak_loss_factor"], row["peak_loss_factor_sd"],
-                                      reference["peak_loss_factor"], reference["peak_loss_factor_sd"])
-            row.update(amplitude_rel_diff=amp[0], amplitude_rel_diff_sd=amp[1],
-                       loss_factor_rel_diff=eta[0], loss_factor_rel_diff_sd=eta[1],
-                       peak_shift_hz=row["peak_freq_hz"] - reference["peak_freq_hz"])
-        rows.append(row)
+    """One row per sweep and model, the sweeps in the curves' order; each panel curve is
+    compared with the coupled curve of its own sweep."""
+    rows = []
+    for sweep in dict.fromkeys(curves.sweep):
+        reference = None
+        for model in MODELS:
+            curve = curves[(curves.model == model) & (curves.sweep == sweep)]
+            if curve.empty:
+                continue
+            f = curve.freq_hz.to_numpy()
+            draws = (None, None)
+            if model == "coupled":
+                draws = (redraw(curve.amplitude_m, curve.amplitude_m_sem, PEAK_DRAWS, seed),
+                         redraw(curve.loss_factor, curve.loss_factor_sem, PEAK_DRAWS, seed + 1))
+            peak = peak_with_uncertainty(f, curve.amplitude_m.to_numpy(), curve.loss_factor.to_numpy(),
+                                         *draws)
+            omega = 2.0 * math.pi * peak["peak_freq_hz"]
+            row = {"sweep": sweep, "model": model, **peak,
+                   "peak_accel_g": peak["peak_amplitude_m"] * omega**2 / STANDARD_GRAVITY_M_S2,
+                   "peak_particle_loss_factor": float(np.interp(peak["peak_freq_hz"], f,
+                                                                curve.particle_loss_factor)),
+                   "all_steady": bool(curve.steady.all()),
+                   "max_solutions": int(curve.n_solutions.max())}
+            if model == "coupled":
+                # the panel model's particle loss factor in the coupled peak's state (f and G)
+                panel = float(np.interp(peak["peak_freq_hz"], f, curve.panel_particle_loss_factor))
+                row.update(panel_particle_loss_factor=panel,
+                           particle_loss_factor_rel_diff=panel / row["peak_particle_loss_factor"] - 1.0,
+                           m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f, curve.m_eff_kg)),
+                           panel_m_eff_at_peak_kg=float(np.interp(peak["peak_freq_hz"], f,
+                                                                  curve.panel_m_eff_kg)))
+                reference = row
+            elif reference is not None:
+                amp = relative_difference(row["peak_amplitude_m"], row["peak_amplitude_m_sd"],
+                                          reference["peak_amplitude_m"], reference["peak_amplitude_m_sd"])
+                eta = relative_difference(row["peak_loss_factor"], row["peak_loss_factor_sd"],
+                                          reference["peak_loss_factor"], reference["peak_loss_factor_sd"])
+                row.update(amplitude_rel_diff=amp[0], amplitude_rel_diff_sd=amp[1],
+                           loss_factor_rel_diff=eta[0], loss_factor_rel_diff_sd=eta[1],
+                           peak_shift_hz=row["peak_freq_hz"] - reference["peak_freq_hz"])
+            rows.append(row)
     return pd.DataFrame(rows)
 
 
 def summary_lines(summary: pd.DataFrame) -> list[str]:
-    """One line per model: its peak, and the panel models' differences from the coupled one."""
+    """One line per sweep and model: its peak, and the panel models' differences from the coupled
+    curve of the same sweep."""
     lines = []
     for row in summary.itertuples():
-        text = (f"{row.model:<16} peak {row.peak_freq_hz:7.2f} Hz, |q| {row.peak_amplitude_m * 1e6:.4g} um "
-                f"(G {row.peak_accel_g:.3g} g), loss factor {row.peak_loss_factor:.4g} "
-                f"(particles {row.peak_particle_loss_factor:.4g})")
-        sd = row.peak_loss_factor_sd
-        if np.isfinite(sd):
-            text += f" +- {sd:.2g}"
+        text = f"{row.model:<16} {row.sweep + ' sweep':<10} peak {row.peak_freq_hz:7.2f}"
+        if np.isfinite(row.peak_freq_hz_sd):
+            text += f" +- {row.peak_freq_hz_sd:.2g}"
+        text += f" Hz, |q| {row.peak_amplitude_m * 1e6:.4g}"
+        if np.isfinite(row.peak_amplitude_m_sd):
+            text += f" +- {row.peak_amplitude_m_sd * 1e6:.2g}"
+        text += (f" um (G {row.peak_accel_g:.3g} g), loss factor {row.peak_loss_factor:.4g}"
+                 + (f" +- {row.peak_loss_factor_sd:.2g}" if np.isfinite(row.peak_loss_factor_sd) else "")
+                 + f" (particles {row.peak_particle_loss_factor:.4g})")
         if row.model == "coupled":
             text += (f"; m_eff {row.m_eff_at_peak_kg * 1e3:.4g} g; the panel model in this state "
                      f"(f, G): particles' loss factor {row.panel_particle_loss_factor:.4g} "
@@ -374,7 +466,9 @@ def summary_lines(summary: pd.DataFrame) -> list[str]:
             text += (f"; vs coupled: peak {row.peak_shift_hz:+.2f} Hz, amplitude "
                      f"{row.amplitude_rel_diff:+.1%}, loss factor {row.loss_factor_rel_diff:+.1%}")
             if row.max_solutions > 1:
-                text += f" ({row.max_solutions} consistent amplitudes at some frequency: the largest taken)"
+                rule = ("the largest taken" if row.model == "panel_largest"
+                        else f"the {row.sweep} sweep's branch followed")
+                text += f" (up to {row.max_solutions} consistent amplitudes: {rule})"
         if row.peak_at_edge:
             text += " (peak at the sweep's edge)"
         lines.append(text)

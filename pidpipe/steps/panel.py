@@ -208,7 +208,8 @@ def mode_check_from_config(config: dict, surrogate, m_eff_surrogate, layouts, fo
     result = check_mode(CellScene.from_config(config), loss, full, model.predict, represented,
                         groups, check.cells_per_group, np.stack([p.centres() for p in packings]),
                         fill, force, settings.damping_ratio, freqs, check.transient_cycles,
-                        check.measured_cycles, check.sem_block_cycles, workers, settings.seed)
+                        check.measured_cycles, check.sem_block_cycles, workers, settings.seed,
+                        predict_with_uncertainty=model.predict_with_uncertainty)
     designed = forced_response(loss, model.predict, layout, force, settings.damping_ratio)
     result.meta.update(
         environment=env.name, design=check.design, force_source=force_source,

@@ -69,8 +69,15 @@ def test_a_tiny_check_runs_end_to_end_and_the_flying_beds_dissipate(tmp_path, ca
     assert meta["layout"]["spheres_per_cell"] == 5                 # 25 % of the poured capacity 21
     assert sum(meta["groups"]["cells"]) == 600 and meta["force_n"] == 1.0
     curves = pd.read_csv(out["curves.csv"])
-    coupled = curves[curves.model == "coupled"]
-    assert len(coupled) == 3 and set(curves.model) == {"coupled", "panel", "panel_full_mass"}
+    assert set(curves.model) == {"coupled", "panel", "panel_full_mass", "panel_largest",
+                                 "panel_ceq_minus_sd", "panel_ceq_plus_sd"}     # the GP's std
+    spread = curves[curves.model.str.startswith("panel_ceq")].groupby("model").loss_factor.mean()
+    assert spread["panel_ceq_minus_sd"] < curves[curves.model == "panel"].loss_factor.mean() \
+        < spread["panel_ceq_plus_sd"]
+    assert set(curves.sweep) == {"up", "down"} and meta["reported_sweep"] == "up"
+    assert len(curves[(curves.model == "coupled") & (curves.sweep == "down")]) == 3
+    coupled = curves[(curves.model == "coupled") & (curves.sweep == "up")]
+    assert len(coupled) == 3
     # 1 N on the 0.38 kg mode with zeta 0.01 drives the antinode past 1 g (1.8-5.6 g): the beds
     # fly and dissipate more than a fifth of the structure's own loss factor (resting beds: 4 %,
     # tests/panel/test_check.py), the energy balance closes, and the beds add less than their
