@@ -91,6 +91,33 @@ def loo_rel_error(surrogate: Surrogate) -> float:
     return float("nan")
 
 
+def loo_from_cross_validation(cv: pd.DataFrame, surrogate: Surrogate) -> float | None:
+    """:func:`loo_rel_error` read from a cross-validation table of the surrogate's own table
+    (:func:`pidpipe.design.surrogate.cross_validate`, ``results/surrogate_cv.csv``): the
+    ``rms_rel_error`` of the surrogate's method and target, leave-one-point-out, else
+    leave-one-plane-out. None when the table has no such row, or when the surrogate's log offset
+    is not the one the table's folds used (the default): the caller computes it then.
+
+    Parameters
+    ----------
+    cv : pandas.DataFrame
+        Columns ``method``, ``target``, ``scheme``, ``rms_rel_error``.
+    surrogate : Surrogate
+    """
+    from pidpipe.design.surrogate import DEFAULT_LOG_OFFSET_FRACTION
+
+    offset = surrogate.options.get("log_offset_fraction", DEFAULT_LOG_OFFSET_FRACTION)
+    if offset != DEFAULT_LOG_OFFSET_FRACTION or not {"method", "target", "scheme",
+                                                       "rms_rel_error"} <= set(cv.columns):
+        return None
+    for scheme in ("point", "plane"):
+        rows = cv[(cv["method"] == surrogate.method) & (cv["target"] == surrogate.target)
+                  & (cv["scheme"] == scheme)]
+        if not rows.empty:
+            return float(rows["rms_rel_error"].iloc[0])
+    return None
+
+
 def _cluster_coordinates(result: OptimisationResult, optimum) -> np.ndarray:
     """An optimum's scaled clustering coordinates within the result's bounds."""
     names = ("freq_hz", "fill_pct", "accel_g") if result.kind == "peak" else ("fill_pct",)

@@ -30,10 +30,13 @@ fitted hyperparameters (``optimizer=None``) and predicts identically.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+from scipy.spatial.distance import cdist
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
@@ -119,8 +122,27 @@ class GaussianProcess:
         return self.mean + self.scale * mean, self.scale * np.sqrt(var)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        """Posterior mean only, shape (m,) (the interface of the spline models)."""
-        return self.mean + self.scale * self.regressor.predict(np.asarray(x, dtype=float))
+        """Posterior mean only, shape (m,) (the interface of the spline models).
+
+        The same operations as scikit-learn's ``predict`` of the mean (c * Matern_5/2 between
+        the query and the training points, times the fitted weights; the white kernel adds
+        zeros), in the same order, so the same bits, without its checks of the input, which
+        took half the time of the optimiser's many one-point calls."""
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        amplitude, length_scale, weights = self._mean_terms
+        scaled = cdist(x / length_scale, self.regressor.X_train_ / length_scale, metric="euclidean")
+        k = scaled * math.sqrt(5)
+        k = (1.0 + k + k**2 / 3.0) * np.exp(-k)
+        mean = (np.full(k.shape, amplitude) * k) @ weights
+        mean = self.regressor._y_train_std * mean + self.regressor._y_train_mean
+        return self.mean + self.scale * mean
+
+    @cached_property
+    def _mean_terms(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """The fitted kernel's amplitude c and length scales, and the weights (alpha_)."""
+        product = self.regressor.kernel_.k1
+        return (float(product.k1.constant_value), np.asarray(product.k2.length_scale, dtype=float),
+                self.regressor.alpha_)
 
     def refit(self, y: np.ndarray, noise: np.ndarray) -> "GaussianProcess":
         """The same points and hyperparameters conditioned on new values (no optimisation)."""

@@ -35,7 +35,8 @@ class Optimum:
 
 
 def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget: Budget,
-                   search: Search, bootstrap: Bootstrap, workers: int = 1) -> Optimum:
+                   search: Search, bootstrap: Bootstrap, workers: int = 1,
+                   loo: float | None = None) -> Optimum:
     """Optimise every design, then bootstrap them when the table has SEMs and draws > 0.
 
     Parameters
@@ -49,13 +50,17 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
         Processes the work is shared among: the designs and the leave-one-out error, then the
         bootstrap's draws (forked; each design and draw is computed as alone, so the results are
         the same for any number).
+    loo : float, optional
+        The surrogate's leave-one-out RMS relative error when it is known already (the
+        workflow's cross-validation, :func:`pidpipe.design.bootstrap.loo_from_cross_validation`);
+        computed here otherwise (a GP refitted per fold: the longest part of this stage).
 
     Returns
     -------
     Optimum
         ``note`` says why there are no intervals, if there are none ('' otherwise).
     """
-    results, loo = _designs_and_loo(surrogate, environments, budget, search, workers)
+    results, loo = _designs_and_loo(surrogate, environments, budget, search, workers, loo)
     draws = pd.DataFrame(columns=list(DRAW_COLUMNS))
     note = ""
     if bootstrap.draws == 0:
@@ -75,12 +80,15 @@ def optimise_panel(surrogate: Surrogate, environments: list[Environment], budget
 
 
 def _designs_and_loo(surrogate: Surrogate, environments: list[Environment], budget: Budget,
-                     search: Search, workers: int) -> tuple[list[OptimisationResult], float]:
-    """:func:`~pidpipe.design.designs.optimise_designs` and :func:`~pidpipe.design.bootstrap.loo_rel_error`,
-    shared among ``workers`` forked processes: the leave-one-out error first, then the designs,
-    each one task (independent of the others, so each result is the one computed alone)."""
+                     search: Search, workers: int,
+                     loo: float | None = None) -> tuple[list[OptimisationResult], float]:
+    """:func:`~pidpipe.design.designs.optimise_designs` and :func:`~pidpipe.design.bootstrap.loo_rel_error`
+    (unless ``loo`` is given), shared among ``workers`` forked processes: the leave-one-out
+    error first, then the designs, each one task (independent of the others, so each result is
+    the one computed alone)."""
     if workers <= 1:
-        return optimise_designs(surrogate, environments, budget, search), loo_rel_error(surrogate)
+        return (optimise_designs(surrogate, environments, budget, search),
+                loo_rel_error(surrogate) if loo is None else loo)
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
@@ -88,9 +96,9 @@ def _designs_and_loo(surrogate: Surrogate, environments: list[Environment], budg
     with ProcessPoolExecutor(max_workers=int(workers), initializer=_share,
                              initargs=((surrogate, budget, search),),
                              mp_context=multiprocessing.get_context("fork")) as pool:
-        loo = pool.submit(_loo)
+        computed = pool.submit(_loo) if loo is None else None
         results = list(pool.map(_design, tasks))
-        return results, loo.result()
+        return results, computed.result() if computed is not None else loo
 
 
 _PANEL: tuple = ()

@@ -110,6 +110,8 @@ between 1 and 5 g cover the synthetic truth at their nominal rate.
 
 from __future__ import annotations
 
+import contextlib
+
 import itertools
 import json
 from dataclasses import dataclass, field
@@ -944,7 +946,8 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
                    targets: tuple[str, ...] | None = None,
                    log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                    schemes: tuple[str, ...] = ("point", "plane"), rows: str | None = None,
-                   value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN) -> pd.DataFrame:
+                   value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
+                   workers: int = 1) -> pd.DataFrame:
     """Leave-one-out cross-validation of every (method, target) on the fitted rows.
 
     Two schemes:
@@ -978,6 +981,9 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
         by default each method's own (:data:`METHOD_DEFAULTS`).
     value_column, sem_column : str
         As in :func:`fit_surrogate`.
+    workers : int
+        Folds fitted at once, each in a worker process (the folds are independent: the result
+        does not depend on it).
 
     Returns
     -------
@@ -992,6 +998,23 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
         ``coverage_68`` and ``coverage_95`` (fractions of held-out values inside the 68.3 %
         and 95 % intervals). Schemes with no fold are left out.
     """
+    with fold_workers(workers) if workers > 1 else contextlib.nullcontext() as executor:
+        return _cross_validate(table, methods, targets, log_offset_fraction, schemes, rows,
+                               value_column, sem_column, executor)
+
+
+def fold_workers(workers: int):
+    """Worker processes for cross-validation folds (a ``ProcessPoolExecutor``; use it in a
+    ``with``)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(int(workers), mp_context=multiprocessing.get_context("spawn"))
+
+
+def _cross_validate(table, methods, targets, log_offset_fraction, schemes, rows, value_column,
+                    sem_column, executor) -> pd.DataFrame:
+    """:func:`cross_validate`, its folds fitted in ``executor`` (None: here)."""
     rows_out = []
     has_sems = sem_column in table.columns
     for method in methods:
@@ -1004,7 +1027,8 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
                     continue
                 points = loo_predictions(table, method, target, scheme, rows=rows,
                                          log_offset_fraction=log_offset_fraction,
-                                         value_column=value_column, sem_column=sem_column)
+                                         value_column=value_column, sem_column=sem_column,
+                                         executor=executor)
                 if points.empty:
                     continue
                 rows_out.append(_summarise_folds(points, method, target, scheme))
@@ -1015,13 +1039,17 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
                     scheme: str = "point", rows: str | None = None,
                     log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                     value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
-                    fit_rows: str | None = None) -> pd.DataFrame:
+                    fit_rows: str | None = None, workers: int = 1,
+                    executor=None) -> pd.DataFrame:
     """Every held-out row's prediction in one cross-validation scheme (see :func:`cross_validate`).
 
     ``rows`` chooses the rows that are held out in turn; ``fit_rows`` (default: ``rows``) the
     rows of the rest that each fold fits, so that a spline fitted to the status-ok rows can be
     scored on every case the fit policy keeps. A held-out row outside the fold's domain is left
     out (count them with ``n_predictions``).
+
+    The folds are independent: ``workers`` > 1 fits them in that many worker processes, and an
+    ``executor`` (:func:`fold_workers`) in its own; the result is the same.
 
     Returns
     -------
@@ -1042,41 +1070,57 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
     else:
         used, _ = split_usable(table)
     used = used.reset_index(drop=True)
-    out = []
-    for fold, held in enumerate(_folds(used, scheme)):
-        try:
-            surrogate = fit_surrogate(used.loc[~held], method=method, target=target, rows=fit_rows,
-                                      log_offset_fraction=log_offset_fraction,
-                                      allow_holes=(scheme == "point" or method in _BRIDGING_METHODS),
-                                      value_column=value_column, sem_column=sem_column)
-        except TableError:
-            continue  # this fold leaves too little to fit (e.g. an axis of one level)
-        test = used.loc[held]
-        pts = test[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
-        inside = np.ones(len(test), dtype=bool)
-        for i, name in enumerate(COORDINATE_COLUMNS):  # a held-out edge plane is outside
-            lo, hi = surrogate.domain[name]
-            inside &= (pts[:, i] >= lo) & (pts[:, i] <= hi)
-        if not inside.any():
-            continue
-        test, pts = test.loc[inside], pts[inside]
-        frame = test[[c for c in (*COORDINATE_COLUMNS, "status", "flags") if c in test.columns]].copy()
-        frame.insert(0, "fold", fold)
-        frame["value"] = test[value_column].to_numpy(dtype=float)
-        frame["sem"] = (test[sem_column].to_numpy(dtype=float) if sem_column in test.columns
-                        else np.nan)
-        frame["predicted"] = surrogate._predict(*pts.T)
-        if method == "gp":
-            frame["u"] = surrogate.predict_with_uncertainty(*pts.T)[1]
-            mu, sd = surrogate._model.predict(surrogate._model_input(*pts.T), include_white=True)
-            y, noise = _to_target(frame["value"].to_numpy(), frame["sem"].to_numpy(),
-                                  surrogate.target, surrogate.offset_ns_m,
-                                  at=frame["predicted"].to_numpy())
-            frame["z"] = (y - mu) / np.sqrt(sd**2 + noise)
-            frame["in_68"] = np.abs(frame["z"]) <= 1.0
-            frame["in_95"] = np.abs(frame["z"]) <= float(norm.ppf(0.975))
-        out.append(frame)
+    fit_options = {"method": method, "target": target, "rows": fit_rows,
+                   "log_offset_fraction": log_offset_fraction,
+                   "allow_holes": scheme == "point" or method in _BRIDGING_METHODS,
+                   "value_column": value_column, "sem_column": sem_column}
+    jobs = [(fold, used.loc[~held], used.loc[held], fit_options)
+            for fold, held in enumerate(_folds(used, scheme))]
+    if executor is not None and len(jobs) > 1:
+        frames = list(executor.map(_fold_predictions, jobs))
+    elif workers > 1 and len(jobs) > 1:
+        with fold_workers(min(int(workers), len(jobs))) as pool:
+            frames = list(pool.map(_fold_predictions, jobs))
+    else:
+        frames = [_fold_predictions(job) for job in jobs]
+    out = [frame for frame in frames if frame is not None]
     return pd.concat(out, ignore_index=True) if out else pd.DataFrame()
+
+
+def _fold_predictions(job) -> pd.DataFrame | None:
+    """One fold of :func:`loo_predictions`: fit the rest, predict the held-out rows inside the
+    fold's domain (None when the fold cannot be fitted or holds none inside)."""
+    fold, rest, test, fit_options = job
+    method, value_column, sem_column = (fit_options["method"], fit_options["value_column"],
+                                        fit_options["sem_column"])
+    try:
+        surrogate = fit_surrogate(rest, **fit_options)
+    except TableError:
+        return None  # this fold leaves too little to fit (e.g. an axis of one level)
+    pts = test[list(COORDINATE_COLUMNS)].to_numpy(dtype=float)
+    inside = np.ones(len(test), dtype=bool)
+    for i, name in enumerate(COORDINATE_COLUMNS):  # a held-out edge plane is outside
+        lo, hi = surrogate.domain[name]
+        inside &= (pts[:, i] >= lo) & (pts[:, i] <= hi)
+    if not inside.any():
+        return None
+    test, pts = test.loc[inside], pts[inside]
+    frame = test[[c for c in (*COORDINATE_COLUMNS, "status", "flags") if c in test.columns]].copy()
+    frame.insert(0, "fold", fold)
+    frame["value"] = test[value_column].to_numpy(dtype=float)
+    frame["sem"] = (test[sem_column].to_numpy(dtype=float) if sem_column in test.columns
+                    else np.nan)
+    frame["predicted"] = surrogate._predict(*pts.T)
+    if method == "gp":
+        frame["u"] = surrogate.predict_with_uncertainty(*pts.T)[1]
+        mu, sd = surrogate._model.predict(surrogate._model_input(*pts.T), include_white=True)
+        y, noise = _to_target(frame["value"].to_numpy(), frame["sem"].to_numpy(),
+                              surrogate.target, surrogate.offset_ns_m,
+                              at=frame["predicted"].to_numpy())
+        frame["z"] = (y - mu) / np.sqrt(sd**2 + noise)
+        frame["in_68"] = np.abs(frame["z"]) <= 1.0
+        frame["in_95"] = np.abs(frame["z"]) <= float(norm.ppf(0.975))
+    return frame
 
 
 def _folds(used: pd.DataFrame, scheme: str) -> list[np.ndarray]:

@@ -85,12 +85,13 @@ def fit_m_eff_surrogate(table_path: str, surrogate_path: str, allow_holes: bool 
     logger.info("m_eff %s", surrogate.describe())
 
 
-def cross_validate_table(table_path: str, cv_path: str) -> None:
-    """Leave-one-out cross-validation of every surrogate method on a C_eq table (CSV)."""
+def cross_validate_table(table_path: str, cv_path: str, workers: int = 1) -> None:
+    """Leave-one-out cross-validation of every surrogate method on a C_eq table (CSV), its folds
+    fitted ``workers`` at a time."""
     from pidpipe.design.ceq_table import read_ceq_table
     from pidpipe.design.surrogate import cross_validate, select_surrogate
 
-    cv = cross_validate(read_ceq_table(table_path))
+    cv = cross_validate(read_ceq_table(table_path), workers=workers)
     write_atomic(cv_path, lambda tmp: cv.to_csv(tmp, index=False))
     method, target = select_surrogate(cv)
     logger.info("cross-validation of %s: %d (method, target, scheme) rows; best by the plane "
@@ -125,7 +126,7 @@ def environment_objects(environments: list[dict]) -> list:
 
 def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: dict,
                        optimisation: dict, results_csv: str, history_csv: str, results_json: str,
-                       bootstrap_csv: str, workers: int = 1) -> None:
+                       bootstrap_csv: str, workers: int = 1, cv_path: str | None = None) -> None:
     """Every design of every environment on a saved surrogate, with its bootstrap; write the
     designs (CSV, JSON), the convergence histories and the bootstrap's draws (CSV).
 
@@ -139,6 +140,9 @@ def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: di
         The config's ``optimisation`` section (starts, seed, band rule, bootstrap).
     workers : int
         Processes the bootstrap's draws are shared among (the rule's threads; the same results).
+    cv_path : str, optional
+        The cross-validation of the surrogate's table (``results/surrogate_cv.csv``): the
+        surrogate's leave-one-out error is read from it rather than computed again.
     """
     from pidpipe.design.designs import (
         format_designs,
@@ -151,9 +155,19 @@ def optimise_surrogate(surrogate_path: str, environments: list[dict], budget: di
     from pidpipe.design.surrogate import load_surrogate
 
     surrogate = load_surrogate(surrogate_path)
+    loo = None
+    if cv_path is not None:
+        import pandas
+
+        from pidpipe.design.bootstrap import loo_from_cross_validation
+
+        loo = loo_from_cross_validation(pandas.read_csv(cv_path), surrogate)
+        logger.info("the surrogate's leave-one-out error: %s", "from " + cv_path if loo is not None
+                    else f"computed ({cv_path} has no row of {surrogate.method}, "
+                         f"{surrogate.target})")
     optimum = optimise_panel(surrogate, environment_objects(environments), Budget(**budget),
                              search_settings(optimisation), bootstrap_settings(optimisation["bootstrap"]),
-                             workers=workers)
+                             workers=workers, loo=loo)
     results = optimum.results
     for res in results:
         d = res.design

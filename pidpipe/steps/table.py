@@ -12,12 +12,14 @@ from pidpipe.cases import CaseSpec
 from pidpipe.design.fit_policy import classify_row, row_flags
 from pidpipe.design.records import read_record, records_to_table
 from pidpipe.files import write_atomic
+from pidpipe.refine.table import GRID_SOURCE
 
 logger = logging.getLogger("pidpipe.campaign")
 
 
 def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] | None = None) -> pd.DataFrame:
-    """Aggregate case records into the C_eq table (CSV, written atomically).
+    """Aggregate case records into the C_eq table (CSV, written atomically): the columns of
+    :data:`pidpipe.design.records.TABLE_COLUMNS` and ``source`` (``grid``).
 
     Parameters
     ----------
@@ -36,6 +38,9 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
     expected = [CaseSpec.from_id(c) for c in case_ids or []]
     expected += [CaseSpec.from_id(Path(p).stem) for p in record_paths if not Path(p).is_file()]
     table = records_to_table(records, expected)
+    # where the rows came from, as the refinement loop's table says it (its rows add
+    # "refine round N"; results/ceq_table_refined.csv)
+    table["source"] = GRID_SOURCE
     write_atomic(table_path, lambda tmp: table.to_csv(tmp, index=False))
     counts = table["status"].value_counts().to_dict()
     logger.info("C_eq table %s: %d grid points (%s)", table_path, len(table),

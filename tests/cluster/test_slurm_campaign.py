@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import signal
 import subprocess
 import time
@@ -28,6 +27,7 @@ from pathlib import Path
 
 import psutil
 import pytest
+import yaml
 
 from pidpipe.config import load_config
 from pidpipe.design.records import read_record
@@ -65,6 +65,19 @@ def slurm_command(workdir: Path, *args: str) -> list[str]:
     return [str(SNAKEMAKE), *args, "--snakefile", str(SNAKEFILE), "--directory", str(workdir),
             "--workflow-profile", str(PROFILE), *FAST_POLLING,
             "--group-components", f"cases={CASES_PER_JOB}"]
+
+
+#: Measured cycles of this test's cases: the reduced campaign's 10 make a case last about a
+#: second, too short for the test to see a resubmitted job's case running before it ends (the
+#: campaign twice ended first in runs of the whole suite on an idle machine).
+MEASURED_CYCLES = 80
+
+
+def _write_slow_config(path: Path) -> None:
+    """The reduced campaign's config with MEASURED_CYCLES per case."""
+    config = yaml.safe_load(TEST_CONFIG.read_text(encoding="utf-8"))
+    config["fidelity"]["measured_cycles"] = MEASURED_CYCLES
+    path.write_text(yaml.safe_dump(config, sort_keys=False), encoding="utf-8")
 
 
 def _start(command: list[str], workdir: Path, output: Path) -> subprocess.Popen:
@@ -141,7 +154,7 @@ def campaigns(slurm_cluster, tmp_path_factory) -> dict:
     local = tmp_path_factory.mktemp("local")
     cluster = tmp_path_factory.mktemp("on_slurm")
     for workdir in (local, cluster):
-        shutil.copy(TEST_CONFIG, workdir / "config.yaml")
+        _write_slow_config(workdir / "config.yaml")
     local_out, cluster_out = local / "snakemake.out", cluster / "interrupted.out"
     resumed_out = cluster / "resumed.out"
     started = time.monotonic()

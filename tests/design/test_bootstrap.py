@@ -175,3 +175,24 @@ def test_a_panel_shared_among_processes_gives_the_same_designs_and_draws(tmp_pat
         panel.draws.to_csv(tmp_path / f"{workers}draws.csv", index=False)
         written[workers] = {path.name[1:]: path.read_bytes() for path in tmp_path.glob(f"{workers}*")}
     assert written[1] == written[2] and len(written[1]) == 4
+
+
+def test_the_leave_one_out_error_read_from_the_cross_validation_is_the_one_computed(tmp_path):
+    from pidpipe.design.bootstrap import loo_from_cross_validation
+    from pidpipe.design.designs import write_results_csv
+    from pidpipe.design.optimum import optimise_panel
+    from pidpipe.design.surrogate import cross_validate
+
+    table = noisy_table(np.random.default_rng(5))
+    surrogate = fit_surrogate(table, method="rbf_thin_plate")
+    cv = cross_validate(table)
+    read = loo_from_cross_validation(cv, surrogate)
+    assert read == loo_rel_error(surrogate)
+    # the designs written with the error read are those written with the error computed
+    for name, loo in (("read", read), ("computed", None)):
+        panel = optimise_panel(surrogate, [ENV], BUDGET, SEARCH,
+                               Bootstrap(draws=2, starts=1, seed=4), loo=loo)
+        write_results_csv(panel.results, tmp_path / f"{name}.csv")
+    assert (tmp_path / "read.csv").read_bytes() == (tmp_path / "computed.csv").read_bytes()
+    # a table without the surrogate's own (method, target): the caller computes it
+    assert loo_from_cross_validation(cv[cv["target"] != "log"], surrogate) is None

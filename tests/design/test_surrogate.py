@@ -253,3 +253,12 @@ def test_load_refuses_foreign_or_inconsistent_files(tmp_path):
     path.write_text(json.dumps({"format": "something-else"}))
     with pytest.raises(TableError, match="not a pidpipe-surrogate"):
         load_surrogate(path)
+
+
+def test_cross_validation_in_worker_processes_gives_the_same_table():
+    table = grid_table(onset, f=(100.0, 500.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 50.0, 90.0))
+    table["ceq_coupon_sem_ns_m"] = 0.03 * table["ceq_coupon_ns_m"] + 1e-3
+    methods = ("gp", "tensor_linear")
+    here = cross_validate(table, methods=methods)
+    assert "gp" in set(here["method"]) and set(here["scheme"]) == {"point", "plane"}
+    pd.testing.assert_frame_equal(cross_validate(table, methods=methods, workers=2), here)

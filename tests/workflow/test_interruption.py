@@ -66,7 +66,9 @@ from tests._snakemake import (
 pytestmark = WORKFLOW_MARKS
 
 GRID = {"freq_hz": [1000], "accel_g": [5, 10], "fill_pct": [25, 50]}
-FIDELITY = {"transient_cycles": 20, "transient_min_time_s": 0.0, "measured_cycles": 10}
+#: 20 + 80 cycles make a case last a few seconds: with 10 measured cycles a case took under a
+#: second, and a case seen running sometimes finished before the signal reached Snakemake.
+FIDELITY = {"transient_cycles": 20, "transient_min_time_s": 0.0, "measured_cycles": 80}
 CASES = frozenset(f"f1000Hz_G{accel}_r{fill}pct_rep0" for accel in (5, 10) for fill in (25, 50))
 #: Table columns that must be among those compared: values, errors, flags, fidelity.
 VALUE_COLUMNS = ("case_id", "status", "flags", "n_replicates", "ceq_coupon_ns_m",
@@ -157,6 +159,12 @@ def _table_values(path: Path) -> list[dict[str, str]]:
         rows = list(csv.DictReader(handle))
     assert rows and set(VALUE_COLUMNS) <= set(rows[0]), f"{path} lacks value columns"
     return [{k: v for k, v in row.items() if not _is_timing(k)} for row in rows]
+
+
+#: Record keys left out when two campaigns' records are compared: how many LIGGGHTS runs a case
+#: took. One run in about 40 aborts unexplained and is retried
+#: (pidpipe.steps.cases.ENGINE_ATTEMPTS), in either campaign; what the case measured is the same.
+RETRIES = ("engine_attempts",)
 
 
 def _record_values(path: Path, ignore: tuple[str, ...] = ()) -> str:
@@ -263,7 +271,8 @@ def test_same_config_and_seeds_give_bit_identical_results(reference, fresh):
         assert packing.read_bytes() == (fresh / "results" / "packings" / packing.name).read_bytes()
     assert set(_records(fresh)) == CASES
     for case_id, path in _records(reference).items():
-        assert _record_values(path) == _record_values(_records(fresh)[case_id]), case_id
+        assert (_record_values(path, ignore=RETRIES)
+                == _record_values(_records(fresh)[case_id], ignore=RETRIES)), case_id
     table = _table_values(reference / "results" / "ceq_table.csv")
     assert table == _table_values(fresh / "results" / "ceq_table.csv")
     assert len(table) == len(CASES) and all(row["status"] in ("ok", "flagged") for row in table)
@@ -323,7 +332,8 @@ def test_interrupted_campaign_resumes_with_only_the_unfinished_cases(poured, ref
         assert record.case_id == case_id
         # an interrupted case is never recorded as failed (which would keep it from rerunning)
         assert record.status in ("ok", "flagged"), record.message
-        assert _record_values(path) == _record_values(reference / "results" / "cases" / path.name)
+        assert (_record_values(path, ignore=RETRIES)
+                == _record_values(reference / "results" / "cases" / path.name, ignore=RETRIES))
     unfinished_records = set(records) - finished
     if target == "snakemake" and sig == signal.SIGTERM:
         assert running_then <= finished, "SIGTERM: Snakemake lets the running jobs finish"
@@ -357,7 +367,8 @@ def test_interrupted_campaign_resumes_with_only_the_unfinished_cases(poured, ref
     assert _snapshot(kept) == before  # the finished records were not rewritten
     assert set(_records(workdir)) == CASES and decoy.is_file()
     for case_id, path in _records(workdir).items():
-        assert _record_values(path) == _record_values(reference / "results" / "cases" / path.name)
+        assert (_record_values(path, ignore=RETRIES)
+                == _record_values(reference / "results" / "cases" / path.name, ignore=RETRIES))
     assert (_table_values(workdir / "results" / "ceq_table.csv")
             == _table_values(reference / "results" / "ceq_table.csv"))
     print(f"\n{sig.name} to {target}: signal at {signalled_at:.1f} s, stopped at "
@@ -414,9 +425,8 @@ def test_killed_liggghts_is_retried_once_then_the_case_is_recorded_failed(refere
     reference_cases = reference / "results" / "cases"
     retried = read_record(workdir / "results" / "cases" / f"{once}.json")
     assert retried.engine_attempts == 2
-    attempts = ("engine_attempts",)
-    assert (_record_values(workdir / "results" / "cases" / f"{once}.json", ignore=attempts)
-            == _record_values(reference_cases / f"{once}.json", ignore=attempts))
+    assert (_record_values(workdir / "results" / "cases" / f"{once}.json", ignore=RETRIES)
+            == _record_values(reference_cases / f"{once}.json", ignore=RETRIES))
     log = (workdir / "logs" / "simulate_case" / f"{once}.log").read_text()
     assert "attempt 1 of 2" in log and "killed by signal SIGKILL" in log
 

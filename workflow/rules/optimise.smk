@@ -5,6 +5,7 @@
 rule optimise_environments:
     input:
         surrogate="results/surrogate.json",
+        cv="results/surrogate_cv.csv",  # the surrogate's leave-one-out error, computed once
     output:
         results=report(
             "results/optimum.csv",

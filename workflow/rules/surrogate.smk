@@ -43,6 +43,7 @@ rule cross_validate_surrogate:
         "logs/cross_validate_surrogate.log",
     benchmark:
         "results/benchmarks/cross_validate_surrogate.tsv"
+    threads: 2  # the folds in two processes (a GP refitted per fold: a minute on one core)
     script:
         "../scripts/cross_validate_surrogate.py"
 

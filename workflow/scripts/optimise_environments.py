@@ -22,4 +22,5 @@ run_step(
     results_json=snakemake.output.json,
     bootstrap_csv=snakemake.output.bootstrap,
     workers=snakemake.threads,
+    cv_path=snakemake.input.cv,
 )
