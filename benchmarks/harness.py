@@ -191,14 +191,28 @@ def machine_line() -> str:
 
 
 def command_line(argv: Sequence[str] | None = None) -> str:
-    """The command as typed: ``python <script relative to the repository> <arguments>``."""
+    """The command as typed: ``python <script relative to the repository> <arguments>``, an
+    absolute path among the arguments shown relative to the repository, or as ``DIR`` when it
+    lies outside (a record names no folder of the machine it ran on)."""
     argv = list(sys.argv if argv is None else argv)
     script = Path(argv[0]).resolve() if argv else Path("?")
     try:
         shown = script.relative_to(REPO).as_posix()
     except ValueError:
         shown = argv[0] if argv else "?"
-    return shlex.join(["python", shown, *argv[1:]])
+    return shlex.join(["python", shown, *(_portable(arg) for arg in argv[1:])])
+
+
+def _portable(argument: str) -> str:
+    """An argument without the machine's folders (``--opt=/abs`` too)."""
+    option, equals, value = argument.partition("=") if argument.startswith("--") else ("", "", argument)
+    if not value.startswith("/"):
+        return argument
+    try:
+        value = Path(value).resolve().relative_to(REPO).as_posix()
+    except ValueError:
+        value = "DIR"
+    return f"{option}{equals}{value}"
 
 
 def _figure(name: str, value):

@@ -137,6 +137,13 @@ def test_the_command_is_relative_to_the_repository():
         "python benchmarks/bench_dem.py --cycles 2 --note 'two words'"
 
 
+def test_the_command_names_no_folder_of_the_machine():
+    assert harness.command_line([str(REPO / "benchmarks" / "bench_campaign.py"), "config.yaml",
+                                 "--workdir", "/scratch/runs/u1", "--out=/tmp/x.csv",
+                                 str(REPO / "config.yaml")]) == \
+        "python benchmarks/bench_campaign.py config.yaml --workdir DIR --out=DIR config.yaml"
+
+
 @pytest.mark.parametrize("script", MAINTAINED, ids=lambda p: p.name)
 def test_every_maintained_script_answers_help(script):
     done = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True,
