@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -126,3 +127,13 @@ def write_config(workdir: Path, **changes) -> dict:
             config[key] = value
     (workdir / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     return config
+
+
+def sigint_as_from_a_terminal() -> None:
+    """``preexec_fn`` of a Snakemake the tests interrupt: SIGINT at its default disposition.
+
+    A shell starts a background job (``cmd &``, as a CI runner or ``nohup ... &`` may) with
+    SIGINT ignored, the child inherits that, and Python then installs no KeyboardInterrupt
+    handler: Snakemake never sees the signal and the campaign runs to its end. A user's Ctrl-C
+    reaches a Snakemake whose SIGINT is at its default, which is what the tests are about."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

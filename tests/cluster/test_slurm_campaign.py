@@ -37,6 +37,7 @@ from tests._snakemake import (
     SNAKEMAKE,
     TEST_CONFIG,
     WORKFLOW_MARKS,
+    sigint_as_from_a_terminal,
     snakemake_command,
 )
 from tests.workflow.test_interruption import (
@@ -83,7 +84,7 @@ def _write_slow_config(path: Path) -> None:
 def _start(command: list[str], workdir: Path, output: Path) -> subprocess.Popen:
     with open(output, "w") as handle:
         return subprocess.Popen(command, cwd=workdir, stdout=handle, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+                                start_new_session=True, preexec_fn=sigint_as_from_a_terminal)
 
 
 def _slurm_job_of(process: psutil.Process) -> str | None:
