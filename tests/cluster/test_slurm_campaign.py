@@ -71,7 +71,7 @@ def slurm_command(workdir: Path, *args: str) -> list[str]:
 #: Measured cycles of this test's cases: the reduced campaign's 10 make a case last about a
 #: second, too short for the test to see a resubmitted job's case running before it ends (the
 #: campaign twice ended first in runs of the whole suite on an idle machine).
-MEASURED_CYCLES = 80
+MEASURED_CYCLES = 40
 
 
 def _write_slow_config(path: Path) -> None:

@@ -9,6 +9,7 @@ having run a few cases of 1 cell x 10 cycles (a minute or two on 2 cores)."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import pandas as pd
 import pytest
@@ -27,22 +28,37 @@ def _config(workdir, run_cases: str) -> None:
                  refine={**REFINE, "run_cases": run_cases})
 
 
-def _campaign(tmp_path_factory, run_cases: str):
-    workdir = tmp_path_factory.mktemp(f"refine_campaign_{run_cases}")
-    _config(workdir, run_cases)
-    run = snakemake(workdir)
-    assert run.returncode == 0, run.stdout[-5000:]
-    return workdir
+#: What the loop wrote: removed from a copy of the campaign, its loop runs again from the grid.
+LOOP_OUTPUTS = ("results/refine", "results/ceq_table_refined.csv")
 
 
 @pytest.fixture(scope="module")
 def campaign(tmp_path_factory):
-    return _campaign(tmp_path_factory, "as_jobs")
+    """The whole campaign, each loop run a job (the tests below kill and resume it)."""
+    workdir = tmp_path_factory.mktemp("refine_campaign_as_jobs")
+    _config(workdir, "as_jobs")
+    run = snakemake(workdir)
+    assert run.returncode == 0, run.stdout[-5000:]
+    # the campaign as it finished, for the in-step loop to start from the same grid
+    shutil.copytree(workdir, tmp_path_factory.getbasetemp() / "refine_campaign_finished",
+                    symlinks=True)
+    return workdir
 
 
 @pytest.fixture(scope="module")
-def campaign_in_step(tmp_path_factory):
-    return _campaign(tmp_path_factory, "in_step")
+def campaign_in_step(campaign, tmp_path_factory):
+    """The same grid's loop again, run in one step (the grid's cases are not run again)."""
+    workdir = tmp_path_factory.getbasetemp() / "refine_campaign_in_step"
+    shutil.copytree(tmp_path_factory.getbasetemp() / "refine_campaign_finished", workdir,
+                    symlinks=True)
+    for name in LOOP_OUTPUTS:
+        path = workdir / name
+        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    _config(workdir, "in_step")
+    run = snakemake(workdir, "refine")
+    assert run.returncode == 0, run.stdout[-5000:]
+    assert "simulate_dem_cases" not in run.stdout and "run_refine_case" not in run.stdout
+    return workdir
 
 
 #: Columns that differ between two runs of one plan (the machine's timings).
@@ -174,7 +190,7 @@ def test_a_step_killed_while_running_cases_reruns_only_the_missing_one(campaign_
     table[table["refine_round"] < last].to_csv(state, index=False)
     (campaign_in_step / "results" / "refine" / "work" / "cases" / f"{last_runs[0]}.json").unlink()
     _kill_after(campaign_in_step, 0)
-    run = snakemake(campaign_in_step)
+    run = snakemake(campaign_in_step, "refine")
     assert run.returncode == 0, run.stdout[-5000:]
     assert _steps(campaign_in_step)[0]["runs_in_step"] == [last_runs[0]]
     pd.testing.assert_frame_equal(_loop_table(campaign_in_step), before)
