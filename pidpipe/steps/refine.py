@@ -21,8 +21,8 @@ records it has, and stops at the first runs it lacks; the step names them, Snake
 as a job (:func:`run_refine_plan`, up to ``--cores`` at a time, on a cluster as jobs of their
 own), and the next step continues. A round takes at most two steps (its verifying runs, then
 its cases). With ``refine.run_cases: in_step`` (the DEM's default) the step runs the cases
-itself, round after round, and one step is the whole loop. The loop's decisions depend only on its table, so a killed campaign resumes with
-only the missing runs.
+itself, round after round, and one step is the whole loop. The loop's decisions depend only on
+its table, so a killed campaign resumes with only the missing runs.
 """
 
 from __future__ import annotations
