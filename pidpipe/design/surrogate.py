@@ -1039,8 +1039,7 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
                     scheme: str = "point", rows: str | None = None,
                     log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                     value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
-                    fit_rows: str | None = None, workers: int = 1,
-                    executor=None) -> pd.DataFrame:
+                    fit_rows: str | None = None, executor=None) -> pd.DataFrame:
     """Every held-out row's prediction in one cross-validation scheme (see :func:`cross_validate`).
 
     ``rows`` chooses the rows that are held out in turn; ``fit_rows`` (default: ``rows``) the
@@ -1048,8 +1047,8 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
     scored on every case the fit policy keeps. A held-out row outside the fold's domain is left
     out (count them with ``n_predictions``).
 
-    The folds are independent: ``workers`` > 1 fits them in that many worker processes, and an
-    ``executor`` (:func:`fold_workers`) in its own; the result is the same.
+    The folds are independent: an ``executor`` (:func:`fold_workers`) fits them in its worker
+    processes; the result is the same.
 
     Returns
     -------
@@ -1078,9 +1077,6 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
             for fold, held in enumerate(_folds(used, scheme))]
     if executor is not None and len(jobs) > 1:
         frames = list(executor.map(_fold_predictions, jobs))
-    elif workers > 1 and len(jobs) > 1:
-        with fold_workers(min(int(workers), len(jobs))) as pool:
-            frames = list(pool.map(_fold_predictions, jobs))
     else:
         frames = [_fold_predictions(job) for job in jobs]
     out = [frame for frame in frames if frame is not None]
