@@ -44,6 +44,12 @@ class RefineSettings:
         cases over a cluster), or ``auto`` (:meth:`runs_in_step`: ``in_step`` for the compiled
         DEM, whose cases take seconds, ``as_jobs`` for LIGGGHTS, whose cases take minutes).
         It does not change what the loop decides or runs.
+    far_pilot_measured_cycles : int or None
+        Measured cycles (at most ``fidelity.measured_cycles``) of a grid pilot at a frequency and
+        acceleration that bracket no environment's band, when the loop is on and no uniform
+        target is set (:mod:`pidpipe.config.pilots`); None: every pilot runs
+        ``fidelity.measured_cycles``. At least 2 blocks of ``fidelity.sem_block_cycles``
+        (checked with the config).
     """
 
     interval_fraction: float = 0.10
@@ -52,6 +58,7 @@ class RefineSettings:
     max_rounds: int = 20
     enabled: bool = False
     run_cases: str = "auto"
+    far_pilot_measured_cycles: int | None = 12
 
     def __post_init__(self) -> None:
         problems = self.problems()
@@ -76,8 +83,11 @@ class RefineSettings:
         if self.run_cases not in RUN_CASES:
             lines.append(f"config key refine.run_cases = {self.run_cases!r} is not allowed: it "
                          f"must be one of {', '.join(RUN_CASES)}")
-        for key, least in (("cases_per_round", 1), ("max_rounds", 1)):
+        for key, least in (("cases_per_round", 1), ("max_rounds", 1),
+                           ("far_pilot_measured_cycles", 2)):
             value = getattr(self, key)
+            if key == "far_pilot_measured_cycles" and value is None:
+                continue
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
                 lines.append(f"config key refine.{key} = {value!r} is not allowed: it must be "
                              f"a whole number >= {least}")
@@ -91,7 +101,8 @@ class RefineSettings:
                    max_cpu_s=float(section["max_cpu_s"]),
                    cases_per_round=section["cases_per_round"], max_rounds=section["max_rounds"],
                    enabled=section.get("enabled", False),
-                   run_cases=section.get("run_cases", "auto"))
+                   run_cases=section.get("run_cases", "auto"),
+                   far_pilot_measured_cycles=section.get("far_pilot_measured_cycles", 12))
 
     def runs_in_step(self, engine: str) -> bool:
         """Whether the workflow's step runs the loop's cases itself (``run_cases``; ``auto``:
@@ -107,4 +118,5 @@ class RefineSettings:
         return {"refine": {"interval_fraction": self.interval_fraction,
                            "max_cpu_s": self.max_cpu_s, "cases_per_round": self.cases_per_round,
                            "max_rounds": self.max_rounds, "enabled": self.enabled,
-                           "run_cases": self.run_cases}}
+                           "run_cases": self.run_cases,
+                           "far_pilot_measured_cycles": self.far_pilot_measured_cycles}}

@@ -217,6 +217,12 @@ def _check_semantics(config: dict) -> None:
         raise ConfigError(f"config key fidelity.max_measured_cycles = {fidelity['max_measured_cycles']!r} "
                           f"is not allowed: it must be at least fidelity.measured_cycles "
                           f"({fidelity['measured_cycles']})")
+    far_cycles = config["refine"].get("far_pilot_measured_cycles")
+    if far_cycles is not None and far_cycles < 2 * fidelity["sem_block_cycles"]:
+        raise ConfigError(f"config key refine.far_pilot_measured_cycles = {far_cycles!r} is not "
+                          "allowed: a short pilot must hold two blocks of "
+                          f"fidelity.sem_block_cycles ({fidelity['sem_block_cycles']}) for its "
+                          "standard error")
     cell_spheres = [spheres_for_fill(config, r) for r in config["grid"]["fill_pct"]]
     for fill, count in zip(config["grid"]["fill_pct"], cell_spheres):
         if count < 1:

@@ -215,10 +215,12 @@ def dem_batch_priority(config: dict, case_ids: list[str]) -> float:
     from pidpipe.config.settings import ShakeSettings
     from pidpipe.studies.fidelity import planned_steps
 
-    settings = ShakeSettings.from_config(stage_config(config, "case"))
-    chased = settings.sampling.target_relative_sem is not None
+    from pidpipe.config.pilots import grid_case_config
+
     total = 0.0
     for case in map(CaseSpec.from_id, case_ids):
+        settings = ShakeSettings.from_config(grid_case_config(config, case.freq_hz, case.accel_g))
+        chased = settings.sampling.target_relative_sem is not None
         weight = CHASE_WEIGHT_AT_1G if chased and case.accel_g <= 1.0 else 1.0
         total += weight * planned_steps(settings, case)
     return total / 1e6

@@ -16,6 +16,7 @@ from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_
                                   validation_packing_ids, verify_case_config, workflow_settings)
 from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
+from pidpipe.config.pilots import grid_case_config
 from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
 from pidpipe.studies import fidelity as fidelity_study
@@ -86,7 +87,7 @@ def get_case_id(wildcards):
 def get_case_runtime_min(wildcards, attempt):
     """The time limit of a simulate_case job, minutes: its planned steps (pidpipe.steps.resources)."""
     case = CaseSpec.from_id(get_case_id(wildcards))
-    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    settings = ShakeSettings.from_config(get_case_config(wildcards))
     return cluster_resources.case_runtime_min(settings, case, attempt)
 
 
@@ -125,7 +126,7 @@ def get_dem_batch_movies(wildcards):
 
 def get_dem_batch_runtime_min(wildcards, attempt):
     """The time limit of a simulate_dem_cases job, minutes: its cases' limits summed."""
-    settings = ShakeSettings.from_config(stage_config(config, "case"))
+    settings = ShakeSettings.from_config(get_case_config(wildcards))
     return sum(cluster_resources.case_runtime_min(settings, CaseSpec.from_id(case_id), attempt)
                for case_id in get_dem_batch_case_ids(wildcards))
 
@@ -165,8 +166,14 @@ def get_packing_config():
     return stage_config(config, "packing")
 
 
-def get_case_config():
-    """The config values a case depends on (its packing is an input)."""
+def get_case_config(wildcards):
+    """The config values the grid's cases at a frequency and acceleration depend on (their
+    packings are inputs): the pilot's measured cycles are the point's (pidpipe.config.pilots)."""
+    return grid_case_config(config, float(wildcards.freq), float(wildcards.accel))
+
+
+def get_fresh_case_config():
+    """The config values of a case run afresh at the configured fidelity (validate_chosen)."""
     return stage_config(config, "case")
 
 

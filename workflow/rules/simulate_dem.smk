@@ -11,7 +11,7 @@ rule simulate_dem_cases:
         records=expand("results/cases/" + CASE_PATTERN + ".json", fill=DEM_BATCH_FILLS,
                        allow_missing=True),
     params:
-        config=get_case_config(),
+        config=get_case_config,
         case_ids=get_dem_batch_case_ids,
         packings=get_dem_batch_packings_by_case,
         workdirs=get_dem_batch_workdirs,

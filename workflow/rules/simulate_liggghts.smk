@@ -9,7 +9,7 @@ rule simulate_case:
     output:
         record="results/cases/" + CASE_PATTERN + ".json",
     params:
-        config=get_case_config(),
+        config=get_case_config,
         case_id=get_case_id,
         workdir="results/work/cases/" + CASE_PATTERN,
         packing_pool="results/packings/pool",

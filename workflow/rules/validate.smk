@@ -14,7 +14,7 @@ rule validate_case:
     output:
         record="results/validation/dem/" + CASE_PATTERN + ".json",
     params:
-        config=get_case_config(),
+        config=get_case_config,
         packing_pool="results/packings/pool",
     log:
         "logs/validate_case/" + CASE_PATTERN + ".log",
@@ -50,7 +50,7 @@ rule validate_against_dem:
         plot=report("results/validation/validation.png", caption="../report/validation.rst",
                     category="5. Validation"),
     params:
-        config=get_case_config(),
+        config=get_fresh_case_config(),
         cases=get_validation_cases(),
         workdir="results/work/validation",
     log:
