@@ -379,8 +379,24 @@ class Surrogate:
                      f"{', '.join(f'{v:.3g}' for v in model.length_scales)}, excess scatter "
                      f"{np.sqrt(model.white):.3g} ({self.target} units)")
         if self.holes:
-            text += f"; bridges {len(self.holes)} hole(s): {self.holes}"
+            text += f"; bridges {len(self.holes)} hole(s): {listed_points(self.holes)}"
         return text
+
+
+#: Points a log line lists before it only counts the rest.
+LISTED_POINTS = 8
+
+
+def listed_points(points) -> str:
+    """Points for a log line: the first :data:`LISTED_POINTS`, then how many more.
+
+    A refined table's levels make a product grid of thousands of points, most of them never
+    meant to be run; a warning that listed them all was unreadable.
+    """
+    points = list(points)
+    shown = ", ".join(str(tuple(point)) for point in points[:LISTED_POINTS])
+    more = len(points) - LISTED_POINTS
+    return shown + (f" and {more} more" if more > 0 else "")
 
 
 def _from_target(y, target: str, offset: float) -> np.ndarray:

@@ -26,13 +26,13 @@ def fit_table_surrogate(table_path: str, method: str, surrogate_path: str,
     the log; without it the fit stops and names them.
     """
     from pidpipe.design.ceq_table import read_ceq_table
-    from pidpipe.design.surrogate import fit_surrogate, save_surrogate
+    from pidpipe.design.surrogate import fit_surrogate, listed_points, save_surrogate
 
     table = read_ceq_table(table_path)
     surrogate = fit_surrogate(table, method=method, source=str(table_path), allow_holes=allow_holes)
     if surrogate.holes:
         logger.warning("surrogate bridges %d grid point(s) without an ok result (f Hz, G g, r %%): %s",
-                       len(surrogate.holes), surrogate.holes)
+                       len(surrogate.holes), listed_points(surrogate.holes))
     write_atomic(surrogate_path, lambda tmp: save_surrogate(surrogate, tmp))
     logger.info("surrogate %s (%s target) on %d rows of %s; %d left out; domain %s", method,
                 surrogate.target, len(surrogate.training), table_path, len(surrogate.excluded),
@@ -67,7 +67,7 @@ def fit_m_eff_surrogate(table_path: str, surrogate_path: str, allow_holes: bool 
         fit has no SEM.
     """
     from pidpipe.design.ceq_table import M_EFF_COLUMN, M_EFF_SEM_COLUMN, read_ceq_table
-    from pidpipe.design.surrogate import fit_surrogate, save_surrogate
+    from pidpipe.design.surrogate import fit_surrogate, listed_points, save_surrogate
     from pidpipe.errors import TableError
 
     table = read_ceq_table(table_path)
@@ -80,7 +80,8 @@ def fit_m_eff_surrogate(table_path: str, surrogate_path: str, allow_holes: bool 
                               sem_column=M_EFF_SEM_COLUMN)
     if surrogate.holes:
         logger.warning("m_eff surrogate bridges %d grid point(s) without a fitted m_eff "
-                       "(f Hz, G g, r %%): %s", len(surrogate.holes), surrogate.holes)
+                       "(f Hz, G g, r %%): %s", len(surrogate.holes),
+                       listed_points(surrogate.holes))
     write_atomic(surrogate_path, lambda tmp: save_surrogate(surrogate, tmp))
     logger.info("m_eff %s", surrogate.describe())
 

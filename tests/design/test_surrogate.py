@@ -262,3 +262,14 @@ def test_cross_validation_in_worker_processes_gives_the_same_table():
     here = cross_validate(table, methods=methods)
     assert "gp" in set(here["method"]) and set(here["scheme"]) == {"point", "plane"}
     pd.testing.assert_frame_equal(cross_validate(table, methods=methods, workers=2), here)
+
+
+def test_a_log_line_lists_a_few_points_and_counts_the_rest():
+    from pidpipe.design.surrogate import LISTED_POINTS, listed_points
+
+    points = [(50.0, float(g), 25.0) for g in range(1, 1196)]
+    line = listed_points(points)
+    assert line.startswith("(50.0, 1.0, 25.0), (50.0, 2.0, 25.0)")
+    assert line.count("(") == LISTED_POINTS
+    assert line.endswith(f" and {1195 - LISTED_POINTS} more")
+    assert listed_points(points[:2]) == "(50.0, 1.0, 25.0), (50.0, 2.0, 25.0)"
