@@ -244,10 +244,26 @@ def check_config_command(args: argparse.Namespace) -> int:
           f"r = {list(grid.fill_pct)} %")
     print("  spheres per cell: " + ", ".join(f"{r:g} % -> {fill.spheres(r)}" for r in grid.fill_pct)
           + f" (full cell = {fill.full_cell_spheres}, fill.definition = {fill.definition})")
+    sampling = settings.sampling
+    print(f"  pilots: {sampling.cells_per_run} cells x {sampling.measured_cycles} measured cycles"
+          + _short_pilots(config))
     print(f"  particle budget: {budget.n_spheres} spheres for a panel of {budget.max_cells} "
           f"cells; environments: "
           + "; ".join(env.name for env in settings.environments))
     return 0
+
+
+def _short_pilots(config: dict) -> str:
+    """``; 12 at the 11 (f, G) points no band reads: ...`` (empty without short pilots)."""
+    from pidpipe.config.pilots import short_pilot_points
+
+    points = short_pilot_points(config)
+    if not points:
+        return ""
+    cycles = min(config["refine"]["far_pilot_measured_cycles"], config["fidelity"]["measured_cycles"])
+    listed = ", ".join(f"{f:g} Hz/{g:g} g" for f, g in points)
+    return (f"; {cycles} at the {len(points)} (f, G) point(s) whose levels bracket no "
+            f"environment's band: {listed}")
 
 
 def _add_table_argument(parser: argparse.ArgumentParser) -> None:

@@ -128,3 +128,11 @@ def grid_case_config(config: dict, freq_hz: float, accel_g: float) -> dict:
     part = stage_config(config, "case")
     part["fidelity"]["measured_cycles"] = pilot_measured_cycles(config, freq_hz, accel_g)
     return part
+
+
+def short_pilot_points(config: dict) -> list[tuple[float, float]]:
+    """The grid's (f, G) points whose pilot runs short (:func:`pilot_measured_cycles`), sorted;
+    empty when the loop does not screen."""
+    grid, full = config["grid"], int(config["fidelity"]["measured_cycles"])
+    return [(float(f), float(g)) for f in sorted(grid["freq_hz"]) for g in sorted(grid["accel_g"])
+            if pilot_measured_cycles(config, f, g) < full]

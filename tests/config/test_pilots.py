@@ -86,3 +86,23 @@ def test_a_bad_short_pilot_length_is_refused_in_one_line(value, words, tmp_path)
     with pytest.raises(ConfigError) as error:
         load_config(path)
     assert words in str(error.value) and "\n" not in str(error.value)
+
+
+def test_check_config_names_the_short_pilots(capsys):
+    from pidpipe.cli import main
+    from pidpipe.config import REPO_ROOT
+
+    assert main(["--config", str(REPO_ROOT / "config.yaml"), "check-config"]) == 0
+    line = next(l for l in capsys.readouterr().out.splitlines() if "pilots:" in l)
+    assert line.strip().startswith("pilots: 7 cells x 40 measured cycles; 12 at the 11 (f, G)")
+    assert "50 Hz/0.5 g" in line and "1000 Hz/1 g" in line and "500 Hz/2 g" not in line
+
+
+def test_short_pilot_points_are_those_of_pilot_measured_cycles():
+    from pidpipe.config.pilots import short_pilot_points
+
+    config = load_config()
+    assert len(short_pilot_points(config)) == 11
+    config = copy.deepcopy(config)
+    config["refine"]["enabled"] = False
+    assert short_pilot_points(config) == []
