@@ -142,7 +142,7 @@ def test_a_campaign_killed_within_a_round_reruns_only_the_missing_run(campaign):
     _kill_after(campaign, asked_at)
     jobs = planned_jobs(snakemake(campaign, "--dry-run").stdout)
     assert jobs.get("run_refine_case") == 1
-    run = snakemake(campaign)
+    run = snakemake(campaign, "refine")  # the loop's outputs; the designs on them: test above
     assert run.returncode == 0, run.stdout[-5000:]
     # the rerun run is the same plan on the same packings: the deterministic DEM gives the row
     # it gave
@@ -154,7 +154,7 @@ def test_a_campaign_killed_between_rounds_runs_no_case_again(campaign):
     state = campaign / "results" / "refine" / "state" / "ceq_table.csv"
     before = state.read_text()
     _kill_after(campaign, 1)
-    run = snakemake(campaign)
+    run = snakemake(campaign, "refine")
     assert run.returncode == 0, run.stdout[-5000:]
     assert "run_refine_case" not in run.stdout
     # the loop's table is ahead of the steps: the second step finds every round's rows
