@@ -68,7 +68,9 @@ def test_pouring_in_the_dem_too_repours_every_packing_and_reruns_every_case(dem_
     assert jobs.get("pour_dem_packings") == 2 and jobs.get("simulate_dem_cases") == 4
     assert "pour_packing" not in jobs
     assert "simulate_case" not in jobs
-    run = snakemake(dem_campaign)
+    # the packings, cases and table that this test checks (the designs after the table:
+    # test_the_rest_of_the_campaign_runs_on_the_dem_table)
+    run = snakemake(dem_campaign, "table")
     assert run.returncode == 0, run.stdout[-5000:]
     for fill in (25, 50):
         packing = json.loads((dem_campaign / "results" / "packings" / f"r{fill}pct_rep0.json").read_text())
