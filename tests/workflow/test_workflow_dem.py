@@ -10,18 +10,22 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests._snakemake import WORKFLOW_MARKS, planned_jobs, snakemake, write_config
+from tests._snakemake import (
+    WORKFLOW_MARKS,
+    copy_campaign,
+    planned_jobs,
+    snakemake,
+    write_config,
+)
 
 pytestmark = WORKFLOW_MARKS
 
 
 @pytest.fixture(scope="module")
-def dem_campaign(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("dem_campaign")
-    write_config(workdir, engine="dem")
-    run = snakemake(workdir)
-    assert run.returncode == 0, run.stdout[-5000:]
-    return workdir
+def dem_campaign(dem_grid_campaign, tmp_path_factory):
+    """The DEM campaign run to its end (tests/workflow/conftest.py), copied: the last test
+    changes it."""
+    return copy_campaign(dem_grid_campaign, tmp_path_factory.mktemp("dem_campaign") / "campaign")
 
 
 def test_every_case_is_shaken_by_the_compiled_dem(dem_campaign):
