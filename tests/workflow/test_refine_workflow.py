@@ -14,7 +14,13 @@ import shutil
 import pandas as pd
 import pytest
 
-from tests._snakemake import WORKFLOW_MARKS, planned_jobs, snakemake, write_config
+from tests._snakemake import (
+    WORKFLOW_MARKS,
+    copy_campaign,
+    planned_jobs,
+    snakemake,
+    write_config,
+)
 
 pytestmark = WORKFLOW_MARKS
 
@@ -33,9 +39,17 @@ LOOP_OUTPUTS = ("results/refine", "results/ceq_table_refined.csv")
 
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory):
-    """The whole campaign, each loop run a job (the tests below kill and resume it)."""
-    workdir = tmp_path_factory.mktemp("refine_campaign_as_jobs")
+def campaign(dem_poured_campaign, tmp_path_factory):
+    """The whole campaign, each loop run a job (the tests below kill and resume it).
+
+    It starts from a copy of the DEM campaign poured by the DEM (tests/workflow/conftest.py),
+    whose packings, cases and table are this config's: the refinement, surrogate and designs
+    run here.
+    """
+    poured = dem_poured_campaign["run"]
+    assert poured.returncode == 0, poured.stdout[-5000:]
+    workdir = copy_campaign(dem_poured_campaign["workdir"],
+                            tmp_path_factory.mktemp("refine_campaign_as_jobs") / "campaign")
     _config(workdir, "as_jobs")
     run = snakemake(workdir)
     assert run.returncode == 0, run.stdout[-5000:]
