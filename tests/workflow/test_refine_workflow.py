@@ -103,6 +103,20 @@ def _steps(workdir) -> list[dict]:
     return [json.loads(p.read_text()) for p in paths]
 
 
+def test_in_a_new_folder_the_loop_waits_for_the_grid_it_starts_from(tmp_path):
+    """From nothing, one run plans the DEM pours, the grid's cases and table, then the loop's
+    first step (the campaign fixture starts from a finished grid)."""
+    _config(tmp_path, "as_jobs")
+    run = snakemake(tmp_path, "--dry-run")
+    assert run.returncode == 0, run.stdout[-5000:]
+    jobs = planned_jobs(run.stdout)
+    assert jobs["pour_dem_packings"] == 2 and jobs["simulate_dem_cases"] == 4, jobs
+    assert jobs["collect_table"] == 1 and jobs["refine_step"] == 1, jobs
+    assert "run_refine_case" not in jobs  # the step names its runs once it has run
+    step = run.stdout.split("checkpoint refine_step:", 1)[1].split("\n\n", 1)[0]
+    assert "input: results/ceq_table.csv" in step and "output: results/refine/steps/1.json" in step
+
+
 def test_the_loop_runs_as_steps_and_every_run_it_asked_for_is_in_its_table(campaign):
     steps = _steps(campaign)
     assert [s["status"] for s in steps] == ["runs needed"] * (len(steps) - 1) + ["done"]
