@@ -129,6 +129,25 @@ def write_config(workdir: Path, **changes) -> dict:
     return config
 
 
+def copy_campaign(source: Path, target: Path) -> Path:
+    """A copy of a campaign folder, Snakemake's metadata and file times included.
+
+    Parameters
+    ----------
+    source : Path
+        A campaign's working directory.
+    target : Path
+        The copy's path (it must not exist yet).
+
+    Returns
+    -------
+    Path
+        ``target``.
+    """
+    shutil.copytree(source, target, symlinks=True)
+    return target
+
+
 def sigint_as_from_a_terminal() -> None:
     """``preexec_fn`` of a Snakemake the tests interrupt: SIGINT at its default disposition.
 

@@ -12,8 +12,10 @@ local SLURM (tests/cluster/local_slurm.py). While the SLURM campaign runs:
    Snakemake is interrupted (SIGINT, as Ctrl-C on the login node): it must cancel its SLURM
    jobs, and the same command run again must redo exactly the cases it had not finished.
 
-Two settings differ from the profile, for a short test: faster status checks (2 s instead of 40 s
-at first) and 2 cases per job instead of 4 (so that a job finishes while others still run).
+Three settings differ from the profile, for a short test: faster status checks (2 s instead of
+10 s at first), kept at 2 s (tests/cluster/steady_polling.py: the plugin waits 10 s longer
+after each check that sees no job end, which made the test about 25 s longer), and 2 cases per
+job instead of 4 (so that a job finishes while others still run).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import os
 import re
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -34,7 +37,6 @@ from pidpipe.design.records import read_record
 from pidpipe.steps.params import campaign_cases
 from tests._snakemake import (
     SNAKEFILE,
-    SNAKEMAKE,
     TEST_CONFIG,
     WORKFLOW_MARKS,
     sigint_as_from_a_terminal,
@@ -51,6 +53,7 @@ from tests.workflow.test_interruption import (
 )
 
 PROFILE = Path(__file__).resolve().parents[2] / "profiles" / "slurm"
+STEADY_POLLING = Path(__file__).resolve().with_name("steady_polling.py")
 #: Faster status polling than the profile's, for the test only (s).
 FAST_POLLING = ("--slurm-init-seconds-before-status-checks", "2",
                 "--seconds-between-status-checks", "2")
@@ -62,9 +65,10 @@ pytestmark = [*WORKFLOW_MARKS, pytest.mark.slurm]
 
 
 def slurm_command(workdir: Path, *args: str) -> list[str]:
-    """The command line of a campaign in ``workdir`` through profiles/slurm (``args``: targets)."""
-    return [str(SNAKEMAKE), *args, "--snakefile", str(SNAKEFILE), "--directory", str(workdir),
-            "--workflow-profile", str(PROFILE), *FAST_POLLING,
+    """The command line of a campaign in ``workdir`` through profiles/slurm (``args``: targets):
+    Snakemake with steady status checks (tests/cluster/steady_polling.py)."""
+    return [sys.executable, str(STEADY_POLLING), *args, "--snakefile", str(SNAKEFILE),
+            "--directory", str(workdir), "--workflow-profile", str(PROFILE), *FAST_POLLING,
             "--group-components", f"cases={CASES_PER_JOB}"]
 
 

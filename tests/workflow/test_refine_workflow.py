@@ -14,7 +14,13 @@ import shutil
 import pandas as pd
 import pytest
 
-from tests._snakemake import WORKFLOW_MARKS, planned_jobs, snakemake, write_config
+from tests._snakemake import (
+    WORKFLOW_MARKS,
+    copy_campaign,
+    planned_jobs,
+    snakemake,
+    write_config,
+)
 
 pytestmark = WORKFLOW_MARKS
 
@@ -33,9 +39,17 @@ LOOP_OUTPUTS = ("results/refine", "results/ceq_table_refined.csv")
 
 
 @pytest.fixture(scope="module")
-def campaign(tmp_path_factory):
-    """The whole campaign, each loop run a job (the tests below kill and resume it)."""
-    workdir = tmp_path_factory.mktemp("refine_campaign_as_jobs")
+def campaign(dem_poured_campaign, tmp_path_factory):
+    """The whole campaign, each loop run a job (the tests below kill and resume it).
+
+    It starts from a copy of the DEM campaign poured by the DEM (tests/workflow/conftest.py),
+    whose packings, cases and table are this config's: the refinement, surrogate and designs
+    run here.
+    """
+    poured = dem_poured_campaign["run"]
+    assert poured.returncode == 0, poured.stdout[-5000:]
+    workdir = copy_campaign(dem_poured_campaign["workdir"],
+                            tmp_path_factory.mktemp("refine_campaign_as_jobs") / "campaign")
     _config(workdir, "as_jobs")
     run = snakemake(workdir)
     assert run.returncode == 0, run.stdout[-5000:]
@@ -87,6 +101,20 @@ def _steps(workdir) -> list[dict]:
     paths = sorted((workdir / "results" / "refine" / "steps").glob("*.json"),
                    key=lambda p: int(p.stem))
     return [json.loads(p.read_text()) for p in paths]
+
+
+def test_in_a_new_folder_the_loop_waits_for_the_grid_it_starts_from(tmp_path):
+    """From nothing, one run plans the DEM pours, the grid's cases and table, then the loop's
+    first step (the campaign fixture starts from a finished grid)."""
+    _config(tmp_path, "as_jobs")
+    run = snakemake(tmp_path, "--dry-run")
+    assert run.returncode == 0, run.stdout[-5000:]
+    jobs = planned_jobs(run.stdout)
+    assert jobs["pour_dem_packings"] == 2 and jobs["simulate_dem_cases"] == 4, jobs
+    assert jobs["collect_table"] == 1 and jobs["refine_step"] == 1, jobs
+    assert "run_refine_case" not in jobs  # the step names its runs once it has run
+    step = run.stdout.split("checkpoint refine_step:", 1)[1].split("\n\n", 1)[0]
+    assert "input: results/ceq_table.csv" in step and "output: results/refine/steps/1.json" in step
 
 
 def test_the_loop_runs_as_steps_and_every_run_it_asked_for_is_in_its_table(campaign):
@@ -142,7 +170,7 @@ def test_a_campaign_killed_within_a_round_reruns_only_the_missing_run(campaign):
     _kill_after(campaign, asked_at)
     jobs = planned_jobs(snakemake(campaign, "--dry-run").stdout)
     assert jobs.get("run_refine_case") == 1
-    run = snakemake(campaign)
+    run = snakemake(campaign, "refine")  # the loop's outputs; the designs on them: test above
     assert run.returncode == 0, run.stdout[-5000:]
     # the rerun run is the same plan on the same packings: the deterministic DEM gives the row
     # it gave
@@ -154,7 +182,7 @@ def test_a_campaign_killed_between_rounds_runs_no_case_again(campaign):
     state = campaign / "results" / "refine" / "state" / "ceq_table.csv"
     before = state.read_text()
     _kill_after(campaign, 1)
-    run = snakemake(campaign)
+    run = snakemake(campaign, "refine")
     assert run.returncode == 0, run.stdout[-5000:]
     assert "run_refine_case" not in run.stdout
     # the loop's table is ahead of the steps: the second step finds every round's rows

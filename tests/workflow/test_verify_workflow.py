@@ -10,18 +10,44 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests._snakemake import WORKFLOW_MARKS, snakemake, write_config
+from tests._snakemake import (
+    WORKFLOW_MARKS,
+    copy_campaign,
+    planned_jobs,
+    snakemake,
+    write_config,
+)
 
 pytestmark = WORKFLOW_MARKS
 
 
+VERIFY = {"engine": "dem", "surrogate_draws": 20}
+
+
 @pytest.fixture(scope="module")
-def verified(tmp_path_factory):
-    workdir = tmp_path_factory.mktemp("verify")
-    write_config(workdir, engine="dem", verify={"engine": "dem", "surrogate_draws": 20})
+def verified(dem_grid_campaign, tmp_path_factory):
+    """`snakemake verify` on a copy of the finished DEM campaign (tests/workflow/conftest.py):
+    the verify section changes none of the campaign's jobs, so only verify's own run."""
+    workdir = copy_campaign(dem_grid_campaign, tmp_path_factory.mktemp("verify") / "campaign")
+    write_config(workdir, engine="dem", verify=VERIFY)
     run = snakemake(workdir, "verify")
     assert run.returncode == 0, run.stdout[-5000:]
+    for rule in ("pour_packing", "simulate_dem_cases", "collect_table", "optimise_environments"):
+        assert f"rule {rule}:" not in run.stdout, rule
     return workdir, run.stdout
+
+
+def test_verify_in_a_new_folder_runs_the_campaign_first(tmp_path):
+    """From nothing, `snakemake verify` plans the campaign's pours, cases, table, surrogate and
+    designs before its checkpoint (the fixture above starts from a finished campaign)."""
+    write_config(tmp_path, engine="dem", verify=VERIFY)
+    run = snakemake(tmp_path, "verify", "--dry-run")
+    assert run.returncode == 0, run.stdout[-5000:]
+    jobs = planned_jobs(run.stdout)
+    assert jobs["pour_packing"] == 2 and jobs["simulate_dem_cases"] == 4, jobs
+    for rule in ("check_packings", "collect_table", "fit_surrogate", "cross_validate_surrogate",
+                 "optimise_environments", "plan_verify"):
+        assert jobs.get(rule) == 1, (rule, jobs)
 
 
 def test_every_band_mean_and_peak_design_is_checked_at_its_corners_and_centre(verified):
@@ -101,7 +127,7 @@ def test_a_new_plan_runs_only_its_new_cases_and_refreshes_the_table_in_the_same_
     shared ones are not, and verify.csv follows in the same run."""
     workdir, _ = verified
     before = {p.name: p.stat().st_mtime_ns for p in (workdir / "results" / "verify" / "cases").glob("*.json")}
-    write_config(workdir, engine="dem", verify={"engine": "dem", "surrogate_draws": 20},
+    write_config(workdir, engine="dem", verify=VERIFY,
                  environments=[{"name": "600-1000 Hz, 6-9 g", "freq_hz": [600, 1000], "accel_g": [6, 9]}])
     run = snakemake(workdir, "verify")
     assert run.returncode == 0, run.stdout[-5000:]
