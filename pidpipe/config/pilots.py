@@ -110,16 +110,7 @@ def grid_case_config(config: dict, freq_hz: float, accel_g: float) -> dict:
     """The case stage's part of the config (:func:`~pidpipe.config.stages.stage_config`) for the
     grid's cases at (f, G): ``fidelity.measured_cycles`` is the point's pilot
     (:func:`pilot_measured_cycles`). A rule's ``params``: a point whose pilot changes length is
-    rerun, the others are not.
-
-    Parameters
-    ----------
-    config : dict
-        A validated config.
-    freq_hz : float
-        Base frequency, Hz.
-    accel_g : float
-        Base acceleration amplitude, g.
+    rerun, the others are not. Parameters as :func:`pilot_measured_cycles`'s (f in Hz, G in g).
 
     Returns
     -------
