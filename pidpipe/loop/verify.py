@@ -484,6 +484,21 @@ def off_lines(table: pd.DataFrame) -> list[str]:
                       "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m", "N*s/m", "z_combined")
 
 
+def worst_z_line(table: pd.DataFrame) -> str:
+    """``<environment> |z| <worst> (<design>, <point>); ...``: each environment's largest
+    |z_combined| over its design points (for the rule's log); ``-`` where no point has a z."""
+    parts = []
+    for environment, rows in table.groupby("environment", sort=False):
+        z = rows["z_combined"].abs()
+        if z.notna().any():
+            worst = rows.loc[z.idxmax()]
+            parts.append(f"{environment} |z| {abs(worst['z_combined']):.2f} ({worst['design']}, "
+                         f"{worst['point']})")
+        else:
+            parts.append(f"{environment} -")
+    return "; ".join(parts)
+
+
 def m_eff_off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the m_eff surrogate is off (for the rule's log)."""
     return _off_lines(table, "m_eff_off", "m_eff ", "m_eff_dem_kg", "m_eff_dem_sem_kg",

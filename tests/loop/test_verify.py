@@ -217,3 +217,17 @@ def test_a_record_the_allocation_extended_is_current():
     other_target["runs"][0]["measured_cycles"] = 40
     other_pilot = extended.with_(target=other_target)
     assert stale_records({"a": other_pilot}, fidelity, 0.05) == ["a: measured_cycles 40 (configured 10)"]
+
+
+def test_the_log_names_each_environments_worst_point():
+    import pandas as pd
+
+    from pidpipe.loop.verify import worst_z_line
+
+    table = pd.DataFrame({
+        "environment": ["A", "A", "A", "B", "C"],
+        "design": ["peak", "peak", "band_mean", "peak", "peak"],
+        "point": ["f_lo_G_lo", "centre", "centre", "centre", "centre"],
+        "z_combined": [0.5, -3.78, 1.2, 0.41, np.nan],
+    })
+    assert worst_z_line(table) == ("A |z| 3.78 (peak, centre); B |z| 0.41 (peak, centre); C -")
