@@ -255,12 +255,12 @@ def check_config_command(args: argparse.Namespace) -> int:
 
 def _short_pilots(config: dict) -> str:
     """``; 12 at the 11 (f, G) points no band reads: ...`` (empty without short pilots)."""
-    from pidpipe.config.pilots import short_pilot_points
+    from pidpipe.config.pilots import pilot_measured_cycles, short_pilot_points
 
     points = short_pilot_points(config)
     if not points:
         return ""
-    cycles = min(config["refine"]["far_pilot_measured_cycles"], config["fidelity"]["measured_cycles"])
+    cycles = pilot_measured_cycles(config, *points[0])
     listed = ", ".join(f"{f:g} Hz/{g:g} g" for f, g in points)
     return (f"; {cycles} at the {len(points)} (f, G) point(s) whose levels bracket no "
             f"environment's band: {listed}")
