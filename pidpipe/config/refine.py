@@ -83,11 +83,11 @@ class RefineSettings:
         if self.run_cases not in RUN_CASES:
             lines.append(f"config key refine.run_cases = {self.run_cases!r} is not allowed: it "
                          f"must be one of {', '.join(RUN_CASES)}")
-        for key, least in (("cases_per_round", 1), ("max_rounds", 1),
-                           ("far_pilot_measured_cycles", 2)):
+        whole_numbers = [("cases_per_round", 1), ("max_rounds", 1)]
+        if self.far_pilot_measured_cycles is not None:          # None: every pilot is full
+            whole_numbers.append(("far_pilot_measured_cycles", 2))
+        for key, least in whole_numbers:
             value = getattr(self, key)
-            if key == "far_pilot_measured_cycles" and value is None:
-                continue
             if isinstance(value, bool) or not isinstance(value, int) or value < least:
                 lines.append(f"config key refine.{key} = {value!r} is not allowed: it must be "
                              f"a whole number >= {least}")

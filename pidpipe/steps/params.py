@@ -212,15 +212,14 @@ def dem_batch_priority(config: dict, case_ids: list[str]) -> float:
     """A ``simulate_dem_cases`` job's priority: its cases' planned pilot time steps, in millions,
     those at G <= 1 weighted by :data:`CHASE_WEIGHT_AT_1G` when there is a target; the costliest
     job first."""
+    from pidpipe.config.pilots import grid_case_config
     from pidpipe.config.settings import ShakeSettings
     from pidpipe.studies.fidelity import planned_steps
 
-    from pidpipe.config.pilots import grid_case_config
-
+    chased = config["fidelity"]["target_relative_sem"] is not None
     total = 0.0
     for case in map(CaseSpec.from_id, case_ids):
         settings = ShakeSettings.from_config(grid_case_config(config, case.freq_hz, case.accel_g))
-        chased = settings.sampling.target_relative_sem is not None
         weight = CHASE_WEIGHT_AT_1G if chased and case.accel_g <= 1.0 else 1.0
         total += weight * planned_steps(settings, case)
     return total / 1e6

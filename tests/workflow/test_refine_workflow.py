@@ -54,8 +54,7 @@ def campaign(dem_poured_campaign, tmp_path_factory):
     run = snakemake(workdir)
     assert run.returncode == 0, run.stdout[-5000:]
     # the campaign as it finished, for the in-step loop to start from the same grid
-    shutil.copytree(workdir, tmp_path_factory.getbasetemp() / "refine_campaign_finished",
-                    symlinks=True)
+    copy_campaign(workdir, tmp_path_factory.getbasetemp() / "refine_campaign_finished")
     return workdir
 
 
@@ -63,8 +62,7 @@ def campaign(dem_poured_campaign, tmp_path_factory):
 def campaign_in_step(campaign, tmp_path_factory):
     """The same grid's loop again, run in one step (the grid's cases are not run again)."""
     workdir = tmp_path_factory.getbasetemp() / "refine_campaign_in_step"
-    shutil.copytree(tmp_path_factory.getbasetemp() / "refine_campaign_finished", workdir,
-                    symlinks=True)
+    copy_campaign(tmp_path_factory.getbasetemp() / "refine_campaign_finished", workdir)
     for name in LOOP_OUTPUTS:
         path = workdir / name
         shutil.rmtree(path) if path.is_dir() else path.unlink()
