@@ -1,7 +1,9 @@
 """The optimum's uncertainty: a parametric bootstrap of the C_eq table through surrogate and optimiser.
 
 Each draw redraws every fitted C_eq from a normal distribution with its standard error
-(``ceq_coupon_sem_ns_m``; negative draws are set to 0, as dissipation is not negative), refits
+(``ceq_coupon_sem_ns_m``; negative draws are set to 0, as dissipation is not negative), the
+rows that share packings with the covariance their ``packing_loads`` give
+(:mod:`pidpipe.design.packing_noise`), refits
 the surrogate with the same method and options, and re-optimises every design of every
 environment (:mod:`pidpipe.design.designs`), starting from the main run's local optima plus
 ``starts`` seeded Latin-hypercube points. The draws give:
@@ -28,6 +30,7 @@ from pidpipe.config.sections import Bootstrap
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
 from pidpipe.design.designs import Search, optimise_design, restart_points
 from pidpipe.design.optimisation import Budget, OptimisationResult
+from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings
 from pidpipe.design.surrogate import Surrogate, cross_validate, refit_values
 from pidpipe.errors import PidpipeError, TableError
 
@@ -67,7 +70,17 @@ def resampled_values(surrogate: Surrogate, draws: int, seed: int) -> np.ndarray:
     value = surrogate.training[VALUE_COLUMN].to_numpy(dtype=float)
     sem = surrogate.training[SEM_COLUMN].to_numpy(dtype=float)
     noise = np.random.default_rng(seed).standard_normal((draws, value.size))
-    return np.maximum(value + sem * noise, 0.0)
+    shared = (SharedPackings.of(surrogate.training["fill_pct"].to_numpy(dtype=float),
+                                surrogate.training[LOADS_COLUMN].tolist())
+              if LOADS_COLUMN in surrogate.training.columns else None)
+    if shared is None:
+        return np.maximum(value + sem * noise, 0.0)
+    covariance = shared.covariance(sem**2)
+    scale = np.sqrt(np.diag(covariance))
+    outer = np.outer(scale, scale)
+    correlation = np.divide(covariance, outer, out=np.eye(value.size), where=outer > 0)
+    factor = np.linalg.cholesky(correlation + 1e-12 * np.eye(value.size))
+    return np.maximum(value + scale * (noise @ factor.T), 0.0)
 
 
 def resampled_surrogates(surrogate: Surrogate, draws: int, seed: int):

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from pidpipe.design.packing_noise import LOADS_COLUMN
 from pidpipe.errors import TableError
 
 #: Coordinates of a table row, in the order (f [Hz], G [g], r [%]) used throughout.
@@ -74,7 +75,7 @@ OPTIONAL_NUMERIC_COLUMNS: tuple[str, ...] = (
 #: Text columns that the campaign writes.
 OPTIONAL_TEXT_COLUMNS: tuple[str, ...] = ("case_id", "status", "flags", "regime", "regime_cells",
                                           "signal", "solver", "solver_version", "liggghts_version",
-                                          "pour_engine")
+                                          "pour_engine", LOADS_COLUMN)
 
 #: Every column the campaign writes, required first.
 OPTIONAL_COLUMNS: tuple[str, ...] = OPTIONAL_TEXT_COLUMNS + OPTIONAL_NUMERIC_COLUMNS

@@ -8,7 +8,10 @@ with each value's noise variance in the same units. The model is
     k(x, x') = c * Matern_5/2(x, x'; l_1, l_2, l_3) + w * [x == x'],
 
 observed as y_i + e_i with e_i ~ N(0, noise_i), noise_i given (scikit-learn's per-sample
-``alpha``). m and s are the mean and the standard deviation of the training values (so the
+``alpha``), or with e ~ N(0, Noise) for a full noise covariance given (cases whose errors are
+correlated because they share packings, :mod:`pidpipe.design.packing_noise`): scikit-learn
+takes only a diagonal, so that model's marginal likelihood and posterior are computed here
+(:class:`CorrelatedNoiseRegressor`), with the same kernel, bounds, restarts and seed. m and s are the mean and the standard deviation of the training values (so the
 kernel's hyperparameters are of order one whatever the units). The amplitude c, the three length
 scales l (anisotropic: f, G and r vary on different scales) and the excess white noise w (scatter
 the reported SEMs do not hold, e.g. between packings, fitted from the data and possibly ~0) are
@@ -36,6 +39,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from scipy.linalg import cho_solve, cholesky, solve_triangular
+from scipy.optimize import minimize
 from scipy.spatial.distance import cdist
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.gaussian_process import GaussianProcessRegressor
@@ -71,8 +76,8 @@ class GaussianProcess:
         Training points (scaled).
     y : numpy.ndarray, shape (n,)
         Training values (transformed units).
-    noise : numpy.ndarray, shape (n,)
-        Noise variance of each training value, transformed units squared.
+    noise : numpy.ndarray, shape (n,) or (n, n)
+        Noise variance of each training value, or their covariance, transformed units squared.
     theta : numpy.ndarray
         The fitted kernel's log-hyperparameters (scikit-learn's ``kernel_.theta``):
         ln c, ln l_1 .. ln l_d, ln w.
@@ -86,7 +91,7 @@ class GaussianProcess:
     theta: np.ndarray
     mean: float
     scale: float
-    regressor: GaussianProcessRegressor
+    regressor: "GaussianProcessRegressor | CorrelatedNoiseRegressor"
 
     @property
     def white(self) -> float:
@@ -162,8 +167,9 @@ def fit_gaussian_process(x, y, noise, theta=None, start=None) -> GaussianProcess
         Scaled training points.
     y : array_like, shape (n,)
         Training values (transformed units).
-    noise : array_like, shape (n,)
-        Noise variance of each value (transformed units squared), >= 0.
+    noise : array_like, shape (n,) or (n, n)
+        Noise variance of each value (transformed units squared), >= 0, or the values' noise
+        covariance (symmetric, positive semi-definite).
     theta : array_like, optional
         Log-hyperparameters of a previous fit (:attr:`GaussianProcess.theta`); the kernel is then
         fixed (``optimizer=None``) and the model is rebuilt deterministically.
@@ -184,11 +190,14 @@ def fit_gaussian_process(x, y, noise, theta=None, start=None) -> GaussianProcess
         scale = 1.0
     standard = (y - mean) / scale
     alpha = noise / scale**2 + 1e-10  # the jitter scikit-learn adds by default
+    if noise.ndim == 2:
+        alpha = noise / scale**2 + 1e-10 * np.eye(len(noise))
+    regressor_class = CorrelatedNoiseRegressor if noise.ndim == 2 else GaussianProcessRegressor
     if theta is None:
         kernel = _kernel(length_scale=np.full(x.shape[1], 0.5))
         if start is not None:
             kernel = kernel.clone_with_theta(np.asarray(start, dtype=float))
-        regressor = GaussianProcessRegressor(
+        regressor = regressor_class(
             kernel=kernel, alpha=alpha, n_restarts_optimizer=RESTARTS if start is None else 0,
             random_state=SEED)
         with warnings.catch_warnings(), threadpool_limits(1):
@@ -200,8 +209,86 @@ def fit_gaussian_process(x, y, noise, theta=None, start=None) -> GaussianProcess
     else:
         theta = np.asarray(theta, dtype=float)
         kernel = _kernel(length_scale=np.ones(x.shape[1])).clone_with_theta(theta)
-        regressor = GaussianProcessRegressor(kernel=kernel, alpha=alpha, optimizer=None)
+        regressor = regressor_class(kernel=kernel, alpha=alpha, optimizer=None)
         with threadpool_limits(1):
             regressor.fit(x, standard)
     return GaussianProcess(x=x, y=y, noise=noise, theta=np.asarray(theta, dtype=float).copy(),
                            mean=mean, scale=scale, regressor=regressor)
+
+
+class CorrelatedNoiseRegressor:
+    """GP regression with a full noise covariance: scikit-learn's ``GaussianProcessRegressor``
+    for the parts this module uses, with ``alpha`` an (n, n) matrix added to the kernel's.
+
+    The log marginal likelihood of y ~ N(0, K(theta) + alpha) and its gradient in the kernel's
+    log-hyperparameters (scikit-learn's kernels give dK/dtheta), maximised by L-BFGS-B within
+    the kernel's bounds from its initial theta and ``n_restarts_optimizer`` starts drawn
+    uniformly in the log-bounds (``random_state``), as scikit-learn does; ``optimizer=None``
+    keeps the kernel. The attributes ``kernel_``, ``X_train_``, ``alpha_`` (the weights),
+    ``L_``, ``_y_train_mean`` (0) and ``_y_train_std`` (1) mean what scikit-learn's do.
+    """
+
+    _y_train_mean = 0.0
+    _y_train_std = 1.0
+
+    def __init__(self, kernel, alpha: np.ndarray, optimizer: str | None = "fmin_l_bfgs_b",
+                 n_restarts_optimizer: int = 0, random_state: int = 0):
+        self.kernel = kernel
+        self.alpha = np.asarray(alpha, dtype=float)
+        self.optimizer = optimizer
+        self.n_restarts_optimizer = int(n_restarts_optimizer)
+        self.random_state = random_state
+
+    def log_marginal_likelihood(self, theta: np.ndarray, eval_gradient: bool = False):
+        """ln p(y | theta) (and its gradient in theta); -inf where K + alpha is not positive definite."""
+        kernel = self.kernel.clone_with_theta(theta)
+        if eval_gradient:
+            k, k_gradient = kernel(self.X_train_, eval_gradient=True)
+        else:
+            k = kernel(self.X_train_)
+        try:
+            lower = cholesky(k + self.alpha, lower=True)
+        except np.linalg.LinAlgError:
+            return (-np.inf, np.zeros_like(theta)) if eval_gradient else -np.inf
+        weights = cho_solve((lower, True), self.y_train_)
+        value = (-0.5 * self.y_train_ @ weights - np.log(np.diag(lower)).sum()
+                 - 0.5 * len(self.y_train_) * np.log(2 * np.pi))
+        if not eval_gradient:
+            return value
+        inner = np.outer(weights, weights) - cho_solve((lower, True), np.eye(len(weights)))
+        return value, 0.5 * np.einsum("ij,jik->k", inner, k_gradient)
+
+    def fit(self, x: np.ndarray, y: np.ndarray) -> "CorrelatedNoiseRegressor":
+        """Fit the kernel (unless ``optimizer`` is None) and condition on (x, y)."""
+        self.X_train_ = np.asarray(x, dtype=float)
+        self.y_train_ = np.asarray(y, dtype=float)
+        self.kernel_ = self.kernel.clone_with_theta(self.kernel.theta)
+        if self.optimizer is not None:
+            bounds = self.kernel_.bounds
+            starts = [self.kernel_.theta]
+            rng = np.random.RandomState(self.random_state)
+            starts += [rng.uniform(bounds[:, 0], bounds[:, 1])
+                       for _ in range(self.n_restarts_optimizer)]
+            best = None
+            for start in starts:
+                result = minimize(lambda t: tuple(-v for v in self.log_marginal_likelihood(t, True)),
+                                  start, jac=True, method="L-BFGS-B", bounds=bounds)
+                if np.isfinite(result.fun) and (best is None or result.fun < best.fun):
+                    best = result
+            if best is not None:
+                self.kernel_ = self.kernel_.clone_with_theta(best.x)
+        k = self.kernel_(self.X_train_)
+        self.L_ = cholesky(k + self.alpha, lower=True)
+        self.alpha_ = cho_solve((self.L_, True), self.y_train_)
+        return self
+
+    def predict(self, x: np.ndarray, return_std: bool = False):
+        """Posterior mean (and standard deviation, the kernel's white part included, as
+        scikit-learn's) at the rows of ``x``."""
+        k_trans = self.kernel_(np.asarray(x, dtype=float), self.X_train_)
+        mean = k_trans @ self.alpha_
+        if not return_std:
+            return mean
+        v = solve_triangular(self.L_, k_trans.T, lower=True)
+        var = self.kernel_.diag(np.asarray(x, dtype=float)) - np.einsum("ij,ij->j", v, v)
+        return mean, np.sqrt(np.maximum(var, 0.0))

@@ -12,6 +12,7 @@ import pandas as pd
 
 from pidpipe.cases import CaseSpec, regime
 from pidpipe.design.ceq_table import COORDINATE_COLUMNS, signal_quality
+from pidpipe.design.packing_noise import LOADS_COLUMN, cell_loads, combine_loads, format_loads
 from pidpipe.measurement.case_record import CaseRecord
 
 #: Statuses a table row can have, from the most to the least usable.
@@ -60,7 +61,7 @@ TABLE_COLUMNS: tuple[str, ...] = (
     "n_spheres", "dt_s", "dt_rayleigh_fraction", "steps_per_cycle", "youngs_modulus_scale",
     "transient_cycles", "measured_cycles", "sem_block_cycles", "rotation", "friction", "seed",
     "pour_engine", "cells_per_run", "solver", "solver_version", "liggghts_version", "wall_time_s",
-    "solver_wall_time_s", "liggghts_wall_time_s", "message",
+    "solver_wall_time_s", "liggghts_wall_time_s", "message", LOADS_COLUMN,
 )
 
 
@@ -172,10 +173,24 @@ def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) 
     row["n_spheres"] = reference.n_spheres
     for column, key in _FIDELITY_COLUMNS.items():
         row[column] = reference.fidelity.get(key)
+    row[LOADS_COLUMN] = format_loads(combine_loads([record_loads(r) for r in used],
+                                                   [1.0 / len(used)] * len(used)))
     row["solver"] = reference.solver if reference.status != "missing" else None
     row["solver_version"] = reference.engine.version
     row["liggghts_version"] = reference.engine.get("liggghts_version")
     return row
+
+
+def record_loads(record: CaseRecord) -> dict[int, float]:
+    """A record's loads on its packings, coupon C_eq units (N*s/m)
+    (:func:`pidpipe.design.packing_noise.cell_loads`); empty for one cell."""
+    cells = record.cells or ()
+    seeds = record.fidelity.seeds
+    cell_sem, coupon_sem = _number(record.ceq_cell_sem_ns_m), _number(record.ceq_coupon_sem_ns_m)
+    if len(cells) < 2 or len(seeds) != len(cells) or not cell_sem > 0:
+        return {}
+    return cell_loads([_number(cell.get("ceq_cell_ns_m")) for cell in cells], seeds,
+                      coupon_sem / cell_sem)
 
 
 def harmonics_columns(used: list[CaseRecord]) -> dict:

@@ -46,7 +46,9 @@ Methods (:data:`METHODS`)
     to them. Its rows follow :func:`pidpipe.design.fit_policy.split_for_fit`: cases flagged
     for precision only (``target_not_reached``, ``not_resolved``, ``not_stationary``...) are
     fitted with their large SEM instead of leaving a hole; failed cases and failed checks are
-    dropped. Its default target is ``log``.
+    dropped. Its default target is ``log``. Cases shaken on the same packings (every case of a
+    fill shares the pilot's) have correlated errors: with the table's ``packing_loads`` the
+    noise is their covariance, not a diagonal (:mod:`pidpipe.design.packing_noise`).
 
 Targets of the GP
 -----------------
@@ -132,6 +134,7 @@ from pidpipe.design.ceq_table import (
 )
 from pidpipe.design.fit_policy import split_for_fit
 from pidpipe.design.gaussian_process import fit_gaussian_process
+from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings
 from pidpipe.errors import DomainError, TableError
 
 #: Interpolating methods (the source's family), see the module docstring.
@@ -527,15 +530,17 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     if method == "gp":
         stored = (used[NOISE_AT_COLUMN].to_numpy(dtype=float)
                   if kernel_theta is not None and NOISE_AT_COLUMN in used.columns else None)
+        loads = (SharedPackings.of(used["fill_pct"].to_numpy(dtype=float), used[LOADS_COLUMN].tolist())
+                 if value_column == VALUE_COLUMN and LOADS_COLUMN in used.columns else None)
         model, noise_at = _fit_gp(points, values, sems, target, offset, domain, kernel_theta, stored,
-                                  gp_observations)
+                                  gp_observations, loads)
         options["kernel_theta"] = model.theta.tolist()
         options["gp_observations"] = gp_observations
     else:
         y, _ = _to_target(values, None, target, offset)
         model = _build_model(method, points, y, domain, smoothing, source)
     keep = [c for c in (*COORDINATE_COLUMNS, value_column, sem_column, VALUE_COLUMN, "status",
-                        "flags", "regime") if c in used.columns]
+                        "flags", "regime", LOADS_COLUMN) if c in used.columns]
     training = used[list(dict.fromkeys(keep))].reset_index(drop=True)
     if noise_at is not None:
         training[NOISE_AT_COLUMN] = noise_at
@@ -597,7 +602,7 @@ def _to_target(values: np.ndarray, sems: np.ndarray | None, target: str, offset:
 
 def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: str, offset: float,
             domain: dict, kernel_theta=None, noise_at=None,
-            observations: str = DEFAULT_GP_OBSERVATIONS):
+            observations: str = DEFAULT_GP_OBSERVATIONS, loads: SharedPackings | None = None):
     """The GP of a surrogate and the values its noise was propagated at, shape (n,).
 
     The slope of the target transform that turns a SEM into a noise in y is taken at the GP's
@@ -619,18 +624,36 @@ def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: st
     and 71-87 % between 0.5 and 2 g; the linearised ones at 66.6 % and 95.1 %, and 64 % and
     90-92 % (``benchmarks/compare_surrogates.py ... --synthetic 40 --onset-g 0.25``). The two
     agree where the SEM is small.
+
+    ``loads`` (:class:`pidpipe.design.packing_noise.SharedPackings`, loads in N*s/m): the
+    cases' errors shared through their packings. The noise is then their covariance
+    (:func:`pidpipe.design.packing_noise.noise_covariance`), the loads scaled row by row with
+    the same slope T'(a) as the SEMs, and the GP cannot average away an offset that cases of
+    one fill share; without packings in common (None), the independent noise above.
     """
     x = _scale_u(_to_u(*points.T), domain)
     if noise_at is None:
         y, noise = _to_target(values, sems, target, offset)
+        noise = _with_shared(noise, loads, values, target, offset, values)
         first = fit_gaussian_process(x, y, noise, theta=kernel_theta)
         noise_at = _from_target(first(x), target, offset)
         start = first.theta
     else:
         start = None
     y, noise = _observations(values, sems, target, offset, noise_at, observations)
+    noise = _with_shared(noise, loads, values, target, offset, noise_at)
     return (fit_gaussian_process(x, y, noise, theta=kernel_theta, start=start),
             np.asarray(noise_at, dtype=float))
+
+
+def _with_shared(noise: np.ndarray, loads: SharedPackings | None, values: np.ndarray, target: str,
+                 offset: float, at: np.ndarray) -> np.ndarray:
+    """The noise (n,) as a covariance (n, n) with the packings' shared part, slopes taken at
+    ``at``; ``noise`` itself when no two rows share a packing."""
+    if loads is None:
+        return noise
+    _, slope_squared = _to_target(values, np.ones_like(values), target, offset, at=at)
+    return loads.covariance(noise, np.sqrt(slope_squared))
 
 
 def _observations(values: np.ndarray, sems: np.ndarray | None, target: str, offset: float,

@@ -70,6 +70,7 @@ import pandas as pd
 from pidpipe.cases import CaseSpec
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN, signal_quality
+from pidpipe.design.packing_noise import LOADS_COLUMN, combine_loads, format_loads, parse_loads
 from pidpipe.errors import PidpipeError
 from pidpipe.files import write_atomic
 from pidpipe.refine.candidates import Request
@@ -392,7 +393,8 @@ def pool_rows(base: dict, new: dict) -> dict:
     """An extension's row: ``new`` (the extension's runs) pooled with ``base`` (the row extended).
 
     C_eq (coupon and cell) is the inverse-variance mean of the two, with SEM
-    1 / sqrt(1 / SEM_base^2 + 1 / SEM_new^2); ``cells`` and ``n_replicates`` add up, flags are
+    1 / sqrt(1 / SEM_base^2 + 1 / SEM_new^2), and loads on the packings of both parts, each
+    part's with its weight (:mod:`pidpipe.design.packing_noise`); ``cells`` and ``n_replicates`` add up, flags are
     united (the extension's prefixed ``extN:``), the status is the less usable of the two
     (``ok`` only when both are). When either part has no finite SEM > 0 (a failed run), the row
     is the usable part's, the other noted in ``flags``.
@@ -424,6 +426,10 @@ def pool_rows(base: dict, new: dict) -> dict:
         s = np.array([float(base[sem]), float(new[sem])])
         w = 1.0 / s ** 2
         row[value], row[sem] = float(np.sum(w * v) / np.sum(w)), float(1.0 / math.sqrt(np.sum(w)))
+        if value == VALUE_COLUMN:
+            row[LOADS_COLUMN] = format_loads(combine_loads(
+                [parse_loads(base.get(LOADS_COLUMN)), parse_loads(new.get(LOADS_COLUMN))],
+                w / np.sum(w)))
     row["ceq_relative_sem"], row["signal"] = signal_quality(row[VALUE_COLUMN], row[SEM_COLUMN])
     row["status"] = "ok" if base.get("status") == new.get("status") == "ok" else "flagged"
     row["flags"] = ";".join(base_flags + new_flags)

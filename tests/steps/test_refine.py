@@ -19,6 +19,7 @@ pytest.importorskip("numba")
 
 from pidpipe.cli import main  # noqa: E402
 from pidpipe.config import load_config  # noqa: E402
+from pidpipe.design.packing_noise import LOADS_COLUMN, parse_loads  # noqa: E402
 from pidpipe.refine.candidates import Request  # noqa: E402
 from pidpipe.steps.refine_engine import CaseEngine, pool_rows  # noqa: E402
 from pidpipe.refine.loop import BUDGET_SPENT  # noqa: E402
@@ -74,6 +75,12 @@ def test_an_extension_runs_three_times_the_base_effort_and_pools_it(problem):
     assert row["ceq_coupon_sem_ns_m"] < base["ceq_coupon_sem_ns_m"]
     assert row["ceq_coupon_ns_m"] != base["ceq_coupon_ns_m"]
     assert engine.runs[-1] == "f500Hz_G5_r25pct_rep101"
+    # the base's one cell has no loads; the extension's three cells carry theirs, with the
+    # extension's weight in the pooled mean
+    loads = parse_loads(row[LOADS_COLUMN])
+    assert len(loads) == 3
+    weight = 1.0 - row["ceq_coupon_sem_ns_m"] ** 2 / base["ceq_coupon_sem_ns_m"] ** 2
+    assert sum(w for w, _ in loads.values()) == pytest.approx(weight)
 
 
 def test_pooling_is_by_inverse_variance_and_keeps_a_failed_extension_out():
@@ -82,7 +89,11 @@ def test_pooling_is_by_inverse_variance_and_keeps_a_failed_extension_out():
             "cells": 1, "case_id": "a"}
     new = dict(base, ceq_coupon_ns_m=13.0, ceq_coupon_sem_ns_m=1.0, case_id="b", cells=3,
                status="flagged", flags="not_stationary")
-    row = pool_rows(base, new)
+    row = pool_rows(dict(base, **{LOADS_COLUMN: "0:0.5:1;1:0.5:-1"}),
+                    dict(new, **{LOADS_COLUMN: "5:0.5:2;6:0.5:-2"}))
+    loads = parse_loads(row[LOADS_COLUMN])
+    for seed, (weight, load) in {0: (0.1, 0.2), 1: (0.1, -0.2), 5: (0.4, 1.6), 6: (0.4, -1.6)}.items():
+        assert loads[seed] == pytest.approx((weight, load))
     assert row["ceq_coupon_ns_m"] == pytest.approx((10 / 4 + 13 / 1) / (1 / 4 + 1))
     assert row["ceq_coupon_sem_ns_m"] == pytest.approx(1 / math.sqrt(1 / 4 + 1))
     assert row["status"] == "flagged" and row["flags"] == "ext1:not_stationary"
