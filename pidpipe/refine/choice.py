@@ -13,7 +13,9 @@ observation there brings, for a Gaussian process with the table's SEMs as its no
 for the point itself, the Bayesian update of one value by one more measurement of it):
 
     new case:   sigma^2 - 1 / (1 / sigma^2 + 1 / s_e^2),  s_e the SEM a new case is expected
-                to have: the fitted rows' median relative SEM times the predicted C_eq;
+                to have: the fitted rows' median relative SEM times the predicted C_eq; with
+                sigma^2 and s_e^2 less the variance of the offset its fill's pilot packings
+                share, which no case on those packings reduces (:mod:`pidpipe.design.packing_noise`);
     extension:  sigma^2 - 1 / (1 / sigma^2 + (k - 1) / SEM^2),  k the effort factor (the
                 extension's runs add k - 1 times the case's precision);
 
@@ -22,8 +24,9 @@ in units of each design's target variance: gain = sum over the open designs it s
 which the design's interval meets the criterion. The candidate with the largest gain per
 planned CPU second is taken (ties: the smaller key, then ``new`` before ``extend``); its
 observation is then added to the table as a fantasy (the predicted mean with the expected SEM,
-or the extended row with its SEM / sqrt(k); at a point the surrogate refuses, the prediction at
-the nearest point of its domain) and the surrogate refitted, so that the next pick
+or the extended row with its SEM / sqrt(k) and its packing loads / k; a new case with the
+loads of the nearest row on the pilot's packings, :func:`pilot_loads`; at a point the surrogate
+refuses, the prediction at the nearest point of its domain) and the surrogate refitted, so that the next pick
 sees the variance the first one removes (the "kriging believer" batch). A candidate with no
 gain is never taken.
 
@@ -41,6 +44,8 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
+from pidpipe.design.packing_noise import (LOADS_COLUMN, SharedPackings, format_loads, parse_loads,
+                                          scaled_loads)
 from pidpipe.refine.candidates import EXTEND_FACTOR, Request, extend_candidates, new_case_candidates
 from pidpipe.refine.intervals import DesignInterval
 from pidpipe.refine.predict import predict_or_nan
@@ -140,7 +145,8 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
     if cases and candidates:
         model = fit(table)
     while len(cases) < cases_per_round and candidates:
-        gains = _gains(candidates, model, by_name, open_designs, relative_sem, interval_fraction)
+        gains = _gains(candidates, model, by_name, open_designs, relative_sem, interval_fraction,
+                       table)
         costs = np.array([float(cost(c)) for c in candidates])
         scores = np.where(gains > 0, gains / np.maximum(costs, 1e-300), -np.inf)
         order = sorted(range(len(candidates)),
@@ -168,21 +174,36 @@ def _rounded(score: float) -> float:
 
 
 def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[str],
-           relative_sem: float, interval_fraction: float) -> np.ndarray:
-    """Each candidate's gain in target variances of the open designs it serves; shape (n,)."""
+           relative_sem: float, interval_fraction: float, table: pd.DataFrame) -> np.ndarray:
+    """Each candidate's gain in target variances of the open designs it serves; shape (n,).
+
+    A new case shakes its fill's pilot packings, whose shared offset (variance ``pool``: rho
+    times the sum of its expected loads squared, :func:`pilot_loads`) it cannot reduce: its
+    gain is that of a measurement of the rest, sigma^2 - pool, with its own noise
+    s_e^2 - pool."""
     f = np.array([c.freq_hz for c in candidates])
     g = np.array([c.accel_g for c in candidates])
     r = np.array([c.fill_pct for c in candidates])
     mean, std = predict_or_nan(model, f, g, r)
     precision = np.empty(len(candidates))
+    pool = np.zeros(len(candidates))
+    parsed = [parse_loads(text) for text in table[LOADS_COLUMN]] if LOADS_COLUMN in table else None
+    shared = (SharedPackings.of(table["fill_pct"].to_numpy(dtype=float), parsed)
+              if parsed is not None else None)
     for i, c in enumerate(candidates):
         if c.action == "extend":
             sem = float(c.base[SEM_COLUMN])
             precision[i] = (c.factor - 1.0) / sem ** 2
-        else:
-            sem = max(relative_sem * abs(mean[i]), 1e-300)
-            precision[i] = 1.0 / sem ** 2
-    reduction = np.nan_to_num(variance_reduction(std, precision), nan=0.0)
+            continue
+        sem = max(relative_sem * abs(mean[i]), 1e-300)
+        if shared is not None and np.isfinite(mean[i]):
+            loads, same_fill = pilot_loads(table, c, float(mean[i]), parsed)
+            if same_fill:
+                pool[i] = min(shared.rho * sum(load**2 for _, load in loads.values()),
+                              0.99 * sem**2)
+        precision[i] = 1.0 / (sem**2 - pool[i])
+    rest = np.sqrt(np.maximum(np.nan_to_num(std) ** 2 - pool, 0.0))
+    reduction = np.nan_to_num(variance_reduction(rest, precision), nan=0.0)
     gains = np.zeros(len(candidates))
     for i, c in enumerate(candidates):
         for name in set(c.designs) & open_designs:
@@ -200,6 +221,11 @@ def _with_fantasy(table: pd.DataFrame, request: Request, model,
         out = table.copy()
         where = out["case_key"] == request.key
         out.loc[where, SEM_COLUMN] = out.loc[where, SEM_COLUMN] / math.sqrt(request.factor)
+        if LOADS_COLUMN in out.columns:
+            out[LOADS_COLUMN] = out[LOADS_COLUMN].astype(object)
+            out.loc[where, LOADS_COLUMN] = [
+                format_loads(scaled_loads(parse_loads(text), 1.0 / request.factor))
+                for text in out.loc[where, LOADS_COLUMN]]
         return out
     point = [request.freq_hz, request.accel_g, request.fill_pct]
     mean, _ = predict_or_nan(model, *point)
@@ -212,4 +238,31 @@ def _with_fantasy(table: pd.DataFrame, request: Request, model,
     row = {"freq_hz": request.freq_hz, "accel_g": request.accel_g, "fill_pct": request.fill_pct,
            VALUE_COLUMN: value, SEM_COLUMN: max(relative_sem * abs(value), 1e-300),
            "status": "ok", "case_key": case_key(request.freq_hz, request.accel_g, request.fill_pct)}
+    if LOADS_COLUMN in table.columns:
+        row[LOADS_COLUMN] = format_loads(pilot_loads(table, request, value)[0])
     return pd.concat([table, pd.DataFrame([row])], ignore_index=True, sort=False)
+
+
+def pilot_loads(table: pd.DataFrame, request: Request, value: float,
+                parsed: list | None = None) -> tuple[dict, bool]:
+    """The loads a new case is expected to have on its fill's pilot packings: the nearest row's
+    with loads (same fill first, then in ln f, ln G and r / 100), scaled by the values' ratio;
+    and whether that row is of the same fill (so that the new case shares its packings).
+
+    A new case shakes the pilot's packings of its fill, which every other case of that fill
+    shakes (seeds of the pilot packings are the same at every fill), so its error shares their
+    offsets; a fantasy without them would let the refit average away what one more case on
+    those packings cannot. At a fill no row has yet, the loads are another fill's, on packings
+    of its own. No loads when no row has any. ``parsed``: the table's loads already parsed."""
+    loads = parsed if parsed is not None else [parse_loads(text) for text in table[LOADS_COLUMN]]
+    values = table[VALUE_COLUMN].to_numpy(dtype=float)
+    usable = np.array([bool(part) for part in loads]) & np.isfinite(values) & (values > 0)
+    if not usable.any() or not value > 0:
+        return {}, False
+    f, g, r = (table[c].to_numpy(dtype=float) for c in ("freq_hz", "accel_g", "fill_pct"))
+    other_fill = np.round(r, 3) != round(request.fill_pct, 3)
+    distance = (np.hypot(np.log(f / request.freq_hz), np.log(g / request.accel_g))
+                + np.abs(r - request.fill_pct) / 100.0)
+    order = np.lexsort((distance, other_fill))
+    nearest = next(i for i in order if usable[i])
+    return scaled_loads(loads[nearest], value / values[nearest]), not other_fill[nearest]

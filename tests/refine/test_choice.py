@@ -7,6 +7,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import RBF, ConstantKernel
 
 from pidpipe.design.designs import optimise_designs
+from pidpipe.design.packing_noise import LOADS_COLUMN, format_loads
 from pidpipe.refine.candidates import EXTEND_FACTOR, Request
 from pidpipe.refine.choice import choose, variance_reduction
 from pidpipe.refine.intervals import design_intervals
@@ -92,3 +93,35 @@ def test_a_failing_verify_point_is_run_again_and_gets_a_fitted_case_first(round_
     assert chosen.cases[0].key == failing["case_key"][0] and chosen.cases[0].action == "new"
     assert "verify |z| = 3.10" in chosen.cases[0].reason
     assert [(q.key, q.action, q.run) for q in chosen.reverify] == [(failing["case_key"][0], "reverify", 1)]
+
+
+def _with_shared_loads(fitted: pd.DataFrame, shared_fraction: float) -> pd.DataFrame:
+    """Every row loaded on the same 7 packings of its fill, the same pattern in every row (the
+    cells' deviations fully correlated), with v = shared_fraction * SEM^2."""
+    pattern = np.array([3.0, -2.0, 1.0, 0.0, -1.0, 2.0, -3.0])
+    pattern /= np.sqrt(np.sum(pattern**2))
+    out = fitted.copy()
+    out[LOADS_COLUMN] = [
+        format_loads({k: (1 / 7, float(p * np.sqrt(shared_fraction) * sem)) for k, p in enumerate(pattern)})
+        for sem in out["ceq_coupon_sem_ns_m"]]
+    return out
+
+
+def _gain(request) -> float:
+    return float(request.reason.split("removes ")[1].split(" ")[0])
+
+
+def test_a_new_case_on_packings_its_fill_shares_gains_only_what_they_do_not_share(round_inputs):
+    """The first pick opens a new fill; its fantasy carries the loads a case on that fill's pilot
+    packings is expected to have, so later new cases at that fill (or at a grid fill, whose rows
+    share theirs) are credited only with the part of their noise the packings do not share,
+    and the second pick goes to a fill of its own."""
+    fitted = round_inputs[3]
+    plain = _choose(round_inputs, cases=6)
+    shared = _choose(round_inputs, fitted=_with_shared_loads(fitted, 0.8), cases=6)
+    assert shared.cases[0] == plain.cases[0]            # no row at its fill yet: the same gain
+    first_fill = shared.cases[0].fill_pct
+    assert shared.cases[1].fill_pct not in set(fitted["fill_pct"]) | {first_fill}
+    plain_later = max(_gain(c) for c in plain.cases[1:] if c.fill_pct == first_fill)
+    shared_later = [_gain(c) for c in shared.cases[1:] if c.fill_pct == first_fill]
+    assert shared_later and max(shared_later) < 0.5 * plain_later
