@@ -30,7 +30,7 @@ from pidpipe.config.sections import Bootstrap
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
 from pidpipe.design.designs import Search, optimise_design, restart_points
 from pidpipe.design.optimisation import Budget, OptimisationResult
-from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings
+from pidpipe.design.packing_noise import SharedPackings
 from pidpipe.design.surrogate import Surrogate, cross_validate, refit_values
 from pidpipe.errors import PidpipeError, TableError
 
@@ -70,9 +70,7 @@ def resampled_values(surrogate: Surrogate, draws: int, seed: int) -> np.ndarray:
     value = surrogate.training[VALUE_COLUMN].to_numpy(dtype=float)
     sem = surrogate.training[SEM_COLUMN].to_numpy(dtype=float)
     noise = np.random.default_rng(seed).standard_normal((draws, value.size))
-    shared = (SharedPackings.of(surrogate.training["fill_pct"].to_numpy(dtype=float),
-                                surrogate.training[LOADS_COLUMN].tolist())
-              if LOADS_COLUMN in surrogate.training.columns else None)
+    shared = SharedPackings.of(surrogate.training)
     if shared is None:
         return np.maximum(value + sem * noise, 0.0)
     covariance = shared.covariance(sem**2)

@@ -18,14 +18,19 @@ k - 1 per packing set; a GP given it finds combinations of rows in which the est
 cancel exactly and believes them free of the packings' error. The covariance used instead is
 smooth (:func:`noise_covariance`):
 
-    N_ij = rho * sqrt(v_i v_j) * O_ij   (i != j),    N_ii = max(noise_i, v_i),
+    N_ij = rho(d_ij) * sqrt(v_i v_j) * O_ij   (i != j),    N_ii = max(noise_i, v_i),
 
 with O_ij = sum_p w_ip w_jp / sqrt(sum_p w_ip^2 sum_p w_jp^2) the overlap of the two rows'
-packing weights (1 for rows on the same packings, 0 for rows of other fills) and rho the
-correlation of the cells' deviations pooled over every pair of rows that share packings
-(:func:`pooled_correlation`). It is positive semi-definite (a Schur product of Gram matrices
-plus a non-negative diagonal); for the rows of one packing set its shared part has rank one,
-one offset for the set, which no combination of those rows removes.
+packing weights (1 for rows on the same packings, 0 for rows of other fills) and rho(d) the
+correlation of the cells' deviations as a function of the distance d between the two rows'
+conditions in (ln f, ln G) (:class:`Correlation`): 1 at d = 0, falling over a length to a
+floor, both fitted by least squares to the r_ij of every pair of rows that share packings.
+A packing's offset is not one number: on the DEM campaign's grid, whose rows of a fill are at
+least 0.29 apart in ln f or 0.69 in ln G, the pairs' mean r was 0.09, while pairs the loop
+added within 0.15 in ln f and 0.3 in ln G had r = 0.84 (13 pairs). N is positive
+semi-definite (Schur products of positive semi-definite matrices, plus a non-negative
+diagonal); for the rows of one packing set at one condition its shared part is one offset,
+which no combination of those rows removes.
 
 A packing is named by its fill (rounded to :data:`FILL_DECIMALS` %) and its seed; the loads are
 kept in the table's text column :data:`LOADS_COLUMN` as ``seed:weight:load;...``, the load in
@@ -51,8 +56,11 @@ FILL_DECIMALS = 3
 #: Significant digits a load is written with.
 LOAD_DIGITS = 9
 
-#: Packings two rows must share for their cells' deviations to enter the pooled correlation.
+#: Packings two rows must share for their cells' deviations to enter the fitted correlation.
 MIN_SHARED = 3
+
+#: Lengths the correlation's fall is fitted over (ln units of f and G).
+LENGTHS = np.geomspace(0.05, 5.0, 41)
 
 
 #: A row's loads: seed -> (weight of the packing in the row's mean, load in the row's unit).
@@ -161,10 +169,17 @@ def overlap(weights: np.ndarray) -> np.ndarray:
     return unit @ unit.T
 
 
-def pooled_correlation(weights: np.ndarray, loads: np.ndarray) -> tuple[float, int]:
-    """rho, the mean correlation of the cells' deviations over the pairs of rows sharing at
-    least :data:`MIN_SHARED` packings, clipped to [0, 1]; and the number of such pairs
-    (rho 0 without any)."""
+def pair_correlations(weights: np.ndarray, loads: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The correlation of the cells' deviations of every pair of rows sharing at least
+    :data:`MIN_SHARED` packings, over the packings they share.
+
+    Returns
+    -------
+    i, j : numpy.ndarray of int
+        The pairs' rows (i < j).
+    r : numpy.ndarray
+        sum_p u_ip u_jp / sqrt(sum_p u_ip^2 sum_p u_jp^2), sums over the shared packings.
+    """
     present = (weights > 0).astype(float)
     shared = present @ present.T
     products = loads @ loads.T
@@ -173,14 +188,60 @@ def pooled_correlation(weights: np.ndarray, loads: np.ndarray) -> tuple[float, i
     i, j = np.nonzero(np.triu(shared >= MIN_SHARED, k=1))
     denominator = np.sqrt(own_i[i, j] * own_j[i, j])
     good = denominator > 0
-    if not good.any():
-        return 0.0, 0
-    rho = float(np.mean(products[i, j][good] / denominator[good]))
-    return min(max(rho, 0.0), 1.0), int(good.sum())
+    return i[good], j[good], products[i, j][good] / denominator[good]
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """rho(d) = floor + (1 - floor) exp(-d^2 / (2 length^2)): how the correlation of two rows'
+    packing errors falls with the distance d between their conditions, in (ln f, ln G).
+
+    Attributes
+    ----------
+    floor : float
+        The correlation of rows far apart, in [0, 1].
+    length : float
+        The distance over which it falls from 1 to the floor (ln units).
+    pairs : int
+        Pairs of rows sharing packings it was fitted to (0: none, and then no correlation).
+    """
+
+    floor: float
+    length: float
+    pairs: int
+
+    def __call__(self, distance: np.ndarray) -> np.ndarray:
+        if self.pairs == 0:
+            return np.where(np.asarray(distance) == 0, 1.0, 0.0)
+        return self.floor + (1.0 - self.floor) * np.exp(-0.5 * (np.asarray(distance) / self.length) ** 2)
+
+    @classmethod
+    def fit(cls, distance: np.ndarray, r: np.ndarray) -> "Correlation":
+        """Least squares over the pairs: for each length of :data:`LENGTHS`, the best floor
+        (closed form, clipped to [0, 1]); the pair with the smallest residual."""
+        distance, r = np.asarray(distance, dtype=float), np.asarray(r, dtype=float)
+        if r.size == 0:
+            return cls(0.0, float(LENGTHS[0]), 0)
+        best = None
+        for length in LENGTHS:
+            near = np.exp(-0.5 * (distance / length) ** 2)
+            rest = 1.0 - near
+            floor = float(np.clip(np.sum((r - near) * rest) / max(np.sum(rest**2), 1e-300), 0.0, 1.0))
+            residual = float(np.sum((r - floor - (1.0 - floor) * near) ** 2))
+            if best is None or residual < best[0] - 1e-12:
+                best = (residual, floor, float(length))
+        return cls(best[1], best[2], int(r.size))
+
+
+def condition_distance(freq_hz: np.ndarray, accel_g: np.ndarray) -> np.ndarray:
+    """d_ij = sqrt((ln f_i - ln f_j)^2 + (ln G_i - ln G_j)^2), shape (n, n)."""
+    u = np.column_stack([np.log(np.asarray(freq_hz, dtype=float)),
+                         np.log(np.asarray(accel_g, dtype=float))])
+    return np.sqrt(np.sum((u[:, None, :] - u[None, :, :]) ** 2, axis=-1))
 
 
 def noise_covariance(weights: np.ndarray, loads: np.ndarray, noise: np.ndarray,
-                     rho: float) -> np.ndarray:
+                     correlation: np.ndarray) -> np.ndarray:
     """The rows' noise covariance of the module's text.
 
     Parameters
@@ -189,8 +250,9 @@ def noise_covariance(weights: np.ndarray, loads: np.ndarray, noise: np.ndarray,
         W and U (:func:`load_matrices`); U in the units of the noise's square root.
     noise : numpy.ndarray, shape (n,)
         Each row's own noise variance (its SEM squared, transformed as the model's values).
-    rho : float
-        The pooled correlation, in [0, 1].
+    correlation : numpy.ndarray, shape (n, n)
+        rho(d_ij) (:class:`Correlation` of :func:`condition_distance`), positive semi-definite
+        with ones on its diagonal.
 
     Returns
     -------
@@ -199,7 +261,7 @@ def noise_covariance(weights: np.ndarray, loads: np.ndarray, noise: np.ndarray,
     """
     v = np.sum(loads**2, axis=1)
     sd = np.sqrt(v)
-    shared = rho * np.outer(sd, sd) * overlap(weights)
+    shared = correlation * np.outer(sd, sd) * overlap(weights)
     diagonal = np.maximum(np.asarray(noise, dtype=float), v)
     np.fill_diagonal(shared, 0.0)
     return shared + np.diag(diagonal)
@@ -207,37 +269,47 @@ def noise_covariance(weights: np.ndarray, loads: np.ndarray, noise: np.ndarray,
 
 @dataclass(frozen=True)
 class SharedPackings:
-    """The packings a table's rows share: W, U (row units) and the pooled correlation.
+    """The packings a table's rows share: W, U (row units), their conditions and the fitted
+    correlation.
 
     Attributes
     ----------
     weights, loads : numpy.ndarray, shape (n, P)
         :func:`load_matrices`.
-    rho : float
-        :func:`pooled_correlation`.
-    pairs : int
-        Pairs of rows it was pooled over.
+    distance : numpy.ndarray, shape (n, n)
+        :func:`condition_distance` of the rows.
+    correlation : Correlation
+        Fitted to the rows' :func:`pair_correlations`.
     """
 
     weights: np.ndarray
     loads: np.ndarray
-    rho: float
-    pairs: int
+    distance: np.ndarray
+    correlation: Correlation
 
     @classmethod
-    def of(cls, fill_pct: Sequence[float], loads: Sequence) -> "SharedPackings | None":
-        """The rows' shared packings; None when no two rows share one."""
-        weights, matrix = load_matrices(fill_pct, loads)
+    def of(cls, table) -> "SharedPackings | None":
+        """The shared packings of a table's rows (``fill_pct``, ``freq_hz``, ``accel_g`` and
+        :data:`LOADS_COLUMN`); None when the table has no loads or no two rows share a packing."""
+        if LOADS_COLUMN not in table:
+            return None
+        weights, matrix = load_matrices(np.asarray(table["fill_pct"], dtype=float),
+                                        list(table[LOADS_COLUMN]))
         if not np.any(np.count_nonzero(weights, axis=0) > 1):
             return None
-        return cls(weights, matrix, *pooled_correlation(weights, matrix))
+        distance = condition_distance(table["freq_hz"], table["accel_g"])
+        i, j, r = pair_correlations(weights, matrix)
+        return cls(weights, matrix, distance, Correlation.fit(distance[i, j], r))
 
     def covariance(self, noise: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
         """:func:`noise_covariance` with the loads times ``scale`` row by row (the slope of a
         target transform)."""
         loads = self.loads if scale is None else self.loads * np.asarray(scale, dtype=float)[:, None]
-        return noise_covariance(self.weights, loads, noise, self.rho)
+        return noise_covariance(self.weights, loads, noise, self.correlation(self.distance))
 
-    def shared_variance(self) -> np.ndarray:
-        """rho v_i: each row's variance from the offset its packings share, row units squared."""
-        return self.rho * np.sum(self.loads**2, axis=1)
+    def describe(self) -> str:
+        """One line: the fitted correlation and what it was fitted to."""
+        c = self.correlation
+        return (f"packing errors correlated {c.floor:.2f} + {1 - c.floor:.2f} exp(-d^2 / 2 "
+                f"({c.length:.2f})^2) over d in (ln f, ln G), from {c.pairs} pairs of rows "
+                f"sharing packings")

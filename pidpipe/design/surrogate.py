@@ -530,8 +530,7 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     if method == "gp":
         stored = (used[NOISE_AT_COLUMN].to_numpy(dtype=float)
                   if kernel_theta is not None and NOISE_AT_COLUMN in used.columns else None)
-        loads = (SharedPackings.of(used["fill_pct"].to_numpy(dtype=float), used[LOADS_COLUMN].tolist())
-                 if value_column == VALUE_COLUMN and LOADS_COLUMN in used.columns else None)
+        loads = SharedPackings.of(used) if value_column == VALUE_COLUMN else None
         model, noise_at = _fit_gp(points, values, sems, target, offset, domain, kernel_theta, stored,
                                   gp_observations, loads)
         options["kernel_theta"] = model.theta.tolist()

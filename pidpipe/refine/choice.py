@@ -177,19 +177,18 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
            relative_sem: float, interval_fraction: float, table: pd.DataFrame) -> np.ndarray:
     """Each candidate's gain in target variances of the open designs it serves; shape (n,).
 
-    A new case shakes its fill's pilot packings, whose shared offset (variance ``pool``: rho
-    times the sum of its expected loads squared, :func:`pilot_loads`) it cannot reduce: its
-    gain is that of a measurement of the rest, sigma^2 - pool, with its own noise
-    s_e^2 - pool."""
+    A new case shakes its fill's pilot packings, whose shared offset (variance ``pool``: the
+    sum of its expected loads squared, :func:`pilot_loads`, times the packing errors'
+    correlation at its distance from the row they are copied from) it cannot reduce: its gain
+    is that of a measurement of the rest, sigma^2 - pool, with its own noise s_e^2 - pool."""
     f = np.array([c.freq_hz for c in candidates])
     g = np.array([c.accel_g for c in candidates])
     r = np.array([c.fill_pct for c in candidates])
     mean, std = predict_or_nan(model, f, g, r)
     precision = np.empty(len(candidates))
     pool = np.zeros(len(candidates))
-    parsed = [parse_loads(text) for text in table[LOADS_COLUMN]] if LOADS_COLUMN in table else None
-    shared = (SharedPackings.of(table["fill_pct"].to_numpy(dtype=float), parsed)
-              if parsed is not None else None)
+    shared = SharedPackings.of(table)
+    parsed = [parse_loads(text) for text in table[LOADS_COLUMN]] if shared is not None else None
     for i, c in enumerate(candidates):
         if c.action == "extend":
             sem = float(c.base[SEM_COLUMN])
@@ -197,10 +196,12 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
             continue
         sem = max(relative_sem * abs(mean[i]), 1e-300)
         if shared is not None and np.isfinite(mean[i]):
-            loads, same_fill = pilot_loads(table, c, float(mean[i]), parsed)
-            if same_fill:
-                pool[i] = min(shared.rho * sum(load**2 for _, load in loads.values()),
-                              0.99 * sem**2)
+            loads, nearest = pilot_loads(table, c, float(mean[i]), parsed)
+            if nearest is not None and round(float(table["fill_pct"].iloc[nearest]), 3) == round(c.fill_pct, 3):
+                distance = math.hypot(math.log(c.freq_hz / float(table["freq_hz"].iloc[nearest])),
+                                      math.log(c.accel_g / float(table["accel_g"].iloc[nearest])))
+                pool[i] = min(float(shared.correlation(distance))
+                              * sum(load**2 for _, load in loads.values()), 0.99 * sem**2)
         precision[i] = 1.0 / (sem**2 - pool[i])
     rest = np.sqrt(np.maximum(np.nan_to_num(std) ** 2 - pool, 0.0))
     reduction = np.nan_to_num(variance_reduction(rest, precision), nan=0.0)
@@ -244,10 +245,10 @@ def _with_fantasy(table: pd.DataFrame, request: Request, model,
 
 
 def pilot_loads(table: pd.DataFrame, request: Request, value: float,
-                parsed: list | None = None) -> tuple[dict, bool]:
+                parsed: list | None = None) -> tuple[dict, int | None]:
     """The loads a new case is expected to have on its fill's pilot packings: the nearest row's
     with loads (same fill first, then in ln f, ln G and r / 100), scaled by the values' ratio;
-    and whether that row is of the same fill (so that the new case shares its packings).
+    and that row's position in the table (None without one).
 
     A new case shakes the pilot's packings of its fill, which every other case of that fill
     shakes (seeds of the pilot packings are the same at every fill), so its error shares their
@@ -258,11 +259,11 @@ def pilot_loads(table: pd.DataFrame, request: Request, value: float,
     values = table[VALUE_COLUMN].to_numpy(dtype=float)
     usable = np.array([bool(part) for part in loads]) & np.isfinite(values) & (values > 0)
     if not usable.any() or not value > 0:
-        return {}, False
+        return {}, None
     f, g, r = (table[c].to_numpy(dtype=float) for c in ("freq_hz", "accel_g", "fill_pct"))
     other_fill = np.round(r, 3) != round(request.fill_pct, 3)
     distance = (np.hypot(np.log(f / request.freq_hz), np.log(g / request.accel_g))
                 + np.abs(r - request.fill_pct) / 100.0)
     order = np.lexsort((distance, other_fill))
     nearest = next(i for i in order if usable[i])
-    return scaled_loads(loads[nearest], value / values[nearest]), not other_fill[nearest]
+    return scaled_loads(loads[nearest], value / values[nearest]), int(nearest)

@@ -23,9 +23,10 @@ from pidpipe.design.packing_noise import (
     format_loads,
     load_matrices,
     noise_covariance,
+    Correlation,
     overlap,
+    pair_correlations,
     parse_loads,
-    pooled_correlation,
 )
 from pidpipe.design.surrogate import fit_surrogate
 from tests.design.test_surrogate_gp import SEM, VALUE
@@ -42,8 +43,8 @@ def test_loads_give_the_between_cells_variance_and_the_cells_correlation():
     x[1] += 0.5 * x[0]
     weights, u = load_matrices([50.0, 50.0], [cell_loads(row, range(CELLS)) for row in x])
     np.testing.assert_allclose(np.sum(u**2, axis=1), np.var(x, axis=1, ddof=1) / CELLS, rtol=1e-12)
-    rho, pairs = pooled_correlation(weights, u)
-    assert pairs == 1 and rho == pytest.approx(np.corrcoef(x)[0, 1], rel=1e-12)
+    i, j, r = pair_correlations(weights, u)
+    assert (list(i), list(j)) == ([0], [1]) and r[0] == pytest.approx(np.corrcoef(x)[0, 1], rel=1e-12)
     np.testing.assert_allclose(overlap(weights), np.ones((2, 2)))
 
 
@@ -52,22 +53,37 @@ def test_rows_of_other_fills_share_nothing():
     weights, u = load_matrices([25.0, 50.0], [loads, loads])
     assert u.shape == (2, 4)
     assert overlap(weights)[0, 1] == 0.0
-    assert SharedPackings.of([25.0, 50.0], [loads, loads]) is None
+    table = pd.DataFrame({"freq_hz": [100.0, 100.0], "accel_g": [5.0, 5.0], "fill_pct": [25.0, 50.0],
+                          LOADS_COLUMN: [format_loads(loads)] * 2})
+    assert SharedPackings.of(table) is None
 
 
 def test_the_covariance_is_one_offset_per_packing_set_and_keeps_each_rows_own_noise():
-    """Rows on the same packings share one offset: the shared part has rank one, so no
-    combination of the rows removes it; the diagonal is the larger of SEM^2 and v."""
+    """Rows on the same packings at one condition share one offset: the shared part has rank one,
+    so no combination of the rows removes it; the diagonal is the larger of SEM^2 and v; apart,
+    the correlation scales the covariance."""
     weights = np.full((3, 4), 0.25)
     u = np.array([[0.3, -0.3, 0.1, -0.1], [0.4, -0.4, 0.0, 0.0], [0.1, 0.2, -0.3, 0.0]])
     noise = np.array([1.0, 0.01, 0.2])
-    covariance = noise_covariance(weights, u, noise, rho=0.5)
     v = np.sum(u**2, axis=1)
+    covariance = noise_covariance(weights, u, noise, np.ones((3, 3)))
     np.testing.assert_allclose(np.diag(covariance), np.maximum(noise, v))
-    assert covariance[0, 1] == pytest.approx(0.5 * np.sqrt(v[0] * v[1]))
-    assert np.linalg.eigvalsh(covariance).min() >= -1e-12
-    shared = covariance - np.diag(np.diag(covariance)) + np.diag(0.5 * v)
+    shared = covariance - np.diag(np.diag(covariance)) + np.diag(v)
     assert np.linalg.matrix_rank(shared, tol=1e-12) == 1
+    apart = noise_covariance(weights, u, noise, np.full((3, 3), 0.5) + 0.5 * np.eye(3))
+    assert apart[0, 1] == pytest.approx(0.5 * np.sqrt(v[0] * v[1]))
+    assert np.linalg.eigvalsh(apart).min() >= -1e-12
+
+
+def test_the_correlation_falls_with_distance_as_fitted():
+    """Pairs whose correlation falls from 1 to 0.1 over 0.4 (ln units) give that floor and length."""
+    truth = Correlation(0.1, 0.4, 1)
+    distance = np.linspace(0.0, 3.0, 200)
+    fitted = Correlation.fit(distance, truth(distance))
+    assert fitted.floor == pytest.approx(0.1, abs=0.02)
+    assert fitted.length == pytest.approx(0.4, rel=0.15)
+    assert fitted.pairs == 200
+    assert Correlation.fit(np.array([]), np.array([])).pairs == 0
 
 
 def test_loads_round_trip_as_text_and_combine_by_weight():
@@ -168,7 +184,7 @@ def test_bootstrap_draws_rows_of_a_fill_together():
     training = surrogate.training
     same_fill = np.flatnonzero(training["fill_pct"].to_numpy() == 25.0)[:2]
     other_fill = np.flatnonzero(training["fill_pct"].to_numpy() == 50.0)[0]
-    shared = SharedPackings.of(training["fill_pct"], training[LOADS_COLUMN].tolist())
+    shared = SharedPackings.of(training)
     expected = shared.covariance(training[SEM].to_numpy() ** 2)[same_fill[0], same_fill[1]]
     measured = np.cov(draws[:, same_fill].T)[0, 1]
     assert measured == pytest.approx(expected, rel=0.1)
