@@ -72,6 +72,12 @@ def main() -> None:
         u = summaries["uniform"]["verify"][env]
         l = summaries["loop"]["verify"].get(env, float("nan"))
         lines.append(f"| {env} | {u:.2f} | {l:.2f} |")
+    ratio, pairs = same_run_cpu_ratio(args.uniform, args.loop)
+    figures["same_runs_uniform_over_loop_cpu_ratio"] = ratio
+    figures["same_runs"] = pairs
+    lines += ["", f"The machine was the same for both: {pairs} grid runs made identically in both "
+              f"campaigns (same case, cells and measured cycles) cost uniform / loop = {ratio:.2f} "
+              f"engine CPU (median)."]
     stop = summaries["loop"].get("refine")
     if stop:
         lines += ["", f"The loop stopped: {stop['stopped_by']} after rounds "
@@ -130,6 +136,26 @@ def campaign_summary(work: Path) -> dict:
     summary_path = work / "results" / "refine" / "summary.json"
     refine = json.loads(summary_path.read_text()) if summary_path.is_file() else None
     return {"figures": figures, "designs": designs, "verify": worst, "refine": refine}
+
+
+def same_run_cpu_ratio(uniform: Path, loop: Path) -> tuple[float, int]:
+    """The median ratio of engine CPU between the two campaigns' grid records of the same case
+    made with the same seeds and measured cycles (the uniform target's pilots that it did not
+    extend, against the loop's full pilots), and how many there were: a check that the two
+    campaigns ran on equally fast cores."""
+    from bench_campaign import case_row
+
+    ratios = []
+    for path in (uniform / "results" / "cases").glob("*.json"):
+        other = loop / "results" / "cases" / path.name
+        if not other.is_file():
+            continue
+        u, l = json.loads(path.read_text()), json.loads(other.read_text())
+        same = (u["fidelity"].get("seeds") == l["fidelity"].get("seeds")
+                and u.get("n_cycles") == l.get("n_cycles"))
+        if same and u.get("status") != "failed" and l.get("status") != "failed":
+            ratios.append(case_row(u)["cpu_s"] / case_row(l)["cpu_s"])
+    return (round(float(np.median(ratios)), 2) if ratios else float("nan")), len(ratios)
 
 
 def _slug(text: str) -> str:
