@@ -174,7 +174,7 @@ def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) 
     for column, key in _FIDELITY_COLUMNS.items():
         row[column] = reference.fidelity.get(key)
     row[LOADS_COLUMN] = format_loads(combine_loads([record_loads(r) for r in used],
-                                                   [1.0 / len(used)] * len(used)))
+                                                   [1.0 / max(len(used), 1)] * len(used)))
     row["solver"] = reference.solver if reference.status != "missing" else None
     row["solver_version"] = reference.engine.version
     row["liggghts_version"] = reference.engine.get("liggghts_version")
