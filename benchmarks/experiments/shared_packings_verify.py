@@ -7,7 +7,8 @@ correlated (:mod:`pidpipe.design.packing_noise`). This refits the campaign's fit
 (``results/ceq_table_refined.csv`` after the loop, else ``results/ceq_table.csv``) with the GP
 both ways and compares each with the DEM verify's values (``results/verify.csv``: DEM cases to
 a 5 % standard error on packings of their own, ``benchmarks/verify_dem_5pct.yaml``), with the
-z verify computes (:func:`pidpipe.loop.verify.z_combined`). A table written before rows carried
+z verify computes (:func:`pidpipe.loop.verify.z_combined`); the surrogate is read at the
+design's fill, as verify reads it, and, third, at the whole-sphere fill the DEM case poured. A table written before rows carried
 ``packing_loads`` gets them from the cases' records (:func:`pidpipe.design.records.record_loads`).
 
 Run, in a finished campaign's folder that ``snakemake verify`` ran in:
@@ -70,10 +71,12 @@ def main() -> None:
     points = verify[verify["dem_status"].isin(["ok", "flagged"])].reset_index(drop=True)
     shared = SharedPackings.of(table)
     z = {}
-    for model, fitted in (("independent SEMs", table.drop(columns=LOADS_COLUMN)),
-                          ("packings' covariance", table)):
+    poured = points.assign(design_fill_pct=points["fill_pct"])   # the surrogate at the cell's fill
+    for model, fitted, at in (("independent SEMs", table.drop(columns=LOADS_COLUMN), points),
+                              ("packings' covariance", table, points),
+                              ("packings' covariance, read at the poured fill", table, poured)):
         surrogate = fit_surrogate(fitted, method="gp", allow_holes=True, source=name)
-        predicted = surrogate_uncertainty(surrogate, points, draws=0, seed=0)
+        predicted = surrogate_uncertainty(surrogate, at, draws=0, seed=0)
         z[model] = z_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),
                               points["ceq_coupon_dem_sem_ns_m"].to_numpy(dtype=float),
                               predicted["ceq_coupon_surrogate_ns_m"].to_numpy(dtype=float),

@@ -63,7 +63,7 @@ MIN_SHARED = 3
 LENGTHS = np.geomspace(0.05, 5.0, 41)
 
 
-#: A row's loads: seed -> (weight of the packing in the row's mean, load in the row's unit).
+# A row's loads: seed -> (weight of the packing in the row's mean, load in the row's unit).
 Loads = dict[int, tuple[float, float]]
 
 
