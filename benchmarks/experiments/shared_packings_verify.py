@@ -28,9 +28,8 @@ from harness import record_text  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from pidpipe.design.packing_noise import (LOADS_COLUMN, SharedPackings, combine_loads,  # noqa: E402
-                                          format_loads, pair_correlations)
-from pidpipe.design.records import read_record, record_loads  # noqa: E402
+from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings, pair_correlations  # noqa: E402
+from pidpipe.design.records import read_record, replicates_loads  # noqa: E402
 from pidpipe.design.surrogate import fit_surrogate  # noqa: E402
 from pidpipe.loop.verify import surrogate_uncertainty, z_combined  # noqa: E402
 
@@ -52,13 +51,10 @@ def loads_from_records(table: pd.DataFrame) -> list[str]:
     """Each row's loads rebuilt from its records (replicates averaged with equal weights)."""
     texts = []
     for ids in table["case_id"].fillna(""):
-        parts = []
-        for case_id in str(ids).split(";"):
-            path = next((folder / f"{case_id}.json" for folder in RECORD_FOLDERS
-                         if (folder / f"{case_id}.json").is_file()), None)
-            if path is not None:
-                parts.append(record_loads(read_record(path)))
-        texts.append(format_loads(combine_loads(parts, [1.0 / max(len(parts), 1)] * len(parts))))
+        paths = [next((folder / f"{case_id}.json" for folder in RECORD_FOLDERS
+                       if (folder / f"{case_id}.json").is_file()), None)
+                 for case_id in str(ids).split(";")]
+        texts.append(replicates_loads([read_record(path) for path in paths if path is not None]))
     return texts
 
 

@@ -11,8 +11,8 @@ observed as y_i + e_i with e_i ~ N(0, noise_i), noise_i given (scikit-learn's pe
 ``alpha``), or with e ~ N(0, Noise) for a full noise covariance given (cases whose errors are
 correlated because they share packings, :mod:`pidpipe.design.packing_noise`): scikit-learn
 takes only a diagonal, so that model's marginal likelihood and posterior are computed here
-(:class:`CorrelatedNoiseRegressor`), with the same kernel, bounds, restarts and seed. m and s are the mean and the standard deviation of the training values (so the
-kernel's hyperparameters are of order one whatever the units). The amplitude c, the three length
+(:class:`CorrelatedNoiseRegressor`), with the same kernel, bounds, restarts and seed. m and s
+are the mean and the standard deviation of the training values (so the kernel's hyperparameters are of order one whatever the units). The amplitude c, the three length
 scales l (anisotropic: f, G and r vary on different scales) and the excess white noise w (scatter
 the reported SEMs do not hold, e.g. between packings, fitted from the data and possibly ~0) are
 fitted by maximising the marginal likelihood from a fixed set of restarts (``random_state``
@@ -189,9 +189,8 @@ def fit_gaussian_process(x, y, noise, theta=None, start=None) -> GaussianProcess
     if not np.isfinite(scale) or scale <= 0.0:
         scale = 1.0
     standard = (y - mean) / scale
-    alpha = noise / scale**2 + 1e-10  # the jitter scikit-learn adds by default
-    if noise.ndim == 2:
-        alpha = noise / scale**2 + 1e-10 * np.eye(len(noise))
+    jitter = 1e-10 * np.eye(len(noise)) if noise.ndim == 2 else 1e-10  # scikit-learn's default
+    alpha = noise / scale**2 + jitter
     regressor_class = CorrelatedNoiseRegressor if noise.ndim == 2 else GaussianProcessRegressor
     if theta is None:
         kernel = _kernel(length_scale=np.full(x.shape[1], 0.5))

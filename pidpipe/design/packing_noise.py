@@ -25,9 +25,9 @@ packing weights (1 for rows on the same packings, 0 for rows of other fills) and
 correlation of the cells' deviations as a function of the distance d between the two rows'
 conditions in (ln f, ln G) (:class:`Correlation`): 1 at d = 0, falling over a length to a
 floor, both fitted by least squares to the r_ij of every pair of rows that share packings.
-A packing's offset is not one number: on the DEM campaign's grid, whose rows of a fill are at
-least 0.29 apart in ln f or 0.69 in ln G, the pairs' mean r was 0.09, while pairs the loop
-added within 0.15 in ln f and 0.3 in ln G had r = 0.84 (13 pairs). N is positive
+A packing's offset is not one number: on the default LIGGGHTS campaigns' tables, pairs of rows
+0.2-0.5 apart correlated 0.70-0.72 and pairs more than 1 apart about 0
+(``benchmarks/experiments/shared_packings_verify.py``, docs/explanation/designs.md). N is positive
 semi-definite (Schur products of positive semi-definite matrices, plus a non-negative
 diagonal); for the rows of one packing set at one condition its shared part is one offset,
 which no combination of those rows removes.

@@ -173,17 +173,22 @@ def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) 
     row["n_spheres"] = reference.n_spheres
     for column, key in _FIDELITY_COLUMNS.items():
         row[column] = reference.fidelity.get(key)
-    row[LOADS_COLUMN] = format_loads(combine_loads([record_loads(r) for r in used],
-                                                   [1.0 / max(len(used), 1)] * len(used)))
+    row[LOADS_COLUMN] = replicates_loads(used)
     row["solver"] = reference.solver if reference.status != "missing" else None
     row["solver_version"] = reference.engine.version
     row["liggghts_version"] = reference.engine.get("liggghts_version")
     return row
 
 
-def record_loads(record: CaseRecord) -> dict[int, float]:
-    """A record's loads on its packings, coupon C_eq units (N*s/m)
-    (:func:`pidpipe.design.packing_noise.cell_loads`); empty for one cell."""
+def replicates_loads(used: list[CaseRecord]) -> str:
+    """The ``packing_loads`` text of a row averaging ``used`` with equal weights."""
+    return format_loads(combine_loads([record_loads(r) for r in used],
+                                      [1.0 / max(len(used), 1)] * len(used)))
+
+
+def record_loads(record: CaseRecord) -> dict[int, tuple[float, float]]:
+    """A record's loads on its packings (seed -> weight, load), the load in coupon C_eq units
+    (N*s/m) (:func:`pidpipe.design.packing_noise.cell_loads`); empty for one cell."""
     cells = record.cells or ()
     seeds = record.fidelity.seeds
     cell_sem, coupon_sem = _number(record.ceq_cell_sem_ns_m), _number(record.ceq_coupon_sem_ns_m)

@@ -196,10 +196,8 @@ def _gains(candidates: list[Request], model, by_name: dict, open_designs: set[st
             continue
         sem = max(relative_sem * abs(mean[i]), 1e-300)
         if shared is not None and np.isfinite(mean[i]):
-            loads, nearest = pilot_loads(table, c, float(mean[i]), parsed)
-            if nearest is not None and round(float(table["fill_pct"].iloc[nearest]), 3) == round(c.fill_pct, 3):
-                distance = math.hypot(math.log(c.freq_hz / float(table["freq_hz"].iloc[nearest])),
-                                      math.log(c.accel_g / float(table["accel_g"].iloc[nearest])))
+            loads, distance = pilot_loads(table, c, float(mean[i]), parsed)
+            if distance is not None:
                 pool[i] = min(float(shared.correlation(distance))
                               * sum(load**2 for _, load in loads.values()), 0.99 * sem**2)
         precision[i] = 1.0 / (sem**2 - pool[i])
@@ -245,10 +243,11 @@ def _with_fantasy(table: pd.DataFrame, request: Request, model,
 
 
 def pilot_loads(table: pd.DataFrame, request: Request, value: float,
-                parsed: list | None = None) -> tuple[dict, int | None]:
+                parsed: list | None = None) -> tuple[dict, float | None]:
     """The loads a new case is expected to have on its fill's pilot packings: the nearest row's
     with loads (same fill first, then in ln f, ln G and r / 100), scaled by the values' ratio;
-    and that row's position in the table (None without one).
+    and that row's distance from the case in (ln f, ln G) when it is of the same fill (the case
+    shares its packings), else None.
 
     A new case shakes the pilot's packings of its fill, which every other case of that fill
     shakes (seeds of the pilot packings are the same at every fill), so its error shares their
@@ -262,8 +261,8 @@ def pilot_loads(table: pd.DataFrame, request: Request, value: float,
         return {}, None
     f, g, r = (table[c].to_numpy(dtype=float) for c in ("freq_hz", "accel_g", "fill_pct"))
     other_fill = np.round(r, 3) != round(request.fill_pct, 3)
-    distance = (np.hypot(np.log(f / request.freq_hz), np.log(g / request.accel_g))
-                + np.abs(r - request.fill_pct) / 100.0)
-    order = np.lexsort((distance, other_fill))
+    condition = np.hypot(np.log(f / request.freq_hz), np.log(g / request.accel_g))
+    order = np.lexsort((condition + np.abs(r - request.fill_pct) / 100.0, other_fill))
     nearest = next(i for i in order if usable[i])
-    return scaled_loads(loads[nearest], value / values[nearest]), int(nearest)
+    return (scaled_loads(loads[nearest], value / values[nearest]),
+            None if other_fill[nearest] else float(condition[nearest]))
