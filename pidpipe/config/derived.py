@@ -48,6 +48,50 @@ def spheres_at_fill(full_cell_spheres: int, fill_pct: float) -> int:
     return int(math.floor(full_cell_spheres * float(fill_pct) / 100.0 + 0.5))
 
 
+#: Decimals of a fill (%) that names what a cell holds: enough that 100 n / s_full gives n back.
+FILL_DECIMALS = 3
+
+
+def cell_fill_pct(n_spheres: int, full_cell_spheres: int) -> float:
+    """The fill (%) of a cell holding ``n_spheres``: 100 n / full_cell_spheres, rounded to
+    :data:`FILL_DECIMALS` (5 of 21 spheres: 23.81 %).
+
+    Every table row, surrogate and verifying case takes a cell's fill as this, the count it
+    holds, not the nominal fill it was poured for (25 % of 21 spheres pours 5 of them).
+    """
+    return round(100.0 * int(n_spheres) / int(full_cell_spheres), FILL_DECIMALS)
+
+
+def poured_fill(fill_pct: float, full_cell_spheres: int) -> tuple[float, int]:
+    """The fill (%) and sphere count a cell poured for ``fill_pct`` holds.
+
+    Parameters
+    ----------
+    fill_pct : float
+        A nominal fill, percent (a fractional number of spheres per cell in general).
+    full_cell_spheres : int
+        Spheres at 100 %.
+
+    Returns
+    -------
+    (float, int)
+        :func:`cell_fill_pct` of n, and n = :func:`spheres_at_fill` (round half up).
+
+    Raises
+    ------
+    ConfigError
+        The fill holds no whole sphere.
+    """
+    n_spheres = spheres_at_fill(int(full_cell_spheres), float(fill_pct))
+    if n_spheres < 1:
+        raise ConfigError(f"a fill of {fill_pct:g} % holds no whole sphere "
+                          f"({full_cell_spheres} spheres fill a cell)")
+    fill = cell_fill_pct(n_spheres, full_cell_spheres)
+    if spheres_at_fill(int(full_cell_spheres), fill) != n_spheres:    # cannot happen for
+        raise ConfigError(f"fill {fill:g} % does not give {n_spheres} spheres back")  # sane sizes
+    return fill, n_spheres
+
+
 def spheres_for_fill(config: dict, fill_pct: float) -> int:
     """Spheres per cell at fill r (percent) under the configured fill definition."""
     return spheres_at_fill(full_cell_spheres(config), fill_pct)

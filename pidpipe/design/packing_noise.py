@@ -47,11 +47,10 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from pidpipe.config.derived import FILL_DECIMALS
+
 #: The table's column of a row's packing loads.
 LOADS_COLUMN = "packing_loads"
-
-#: Decimals of the fill (%) that names a packing with its seed.
-FILL_DECIMALS = 3
 
 #: Significant digits a load is written with.
 LOAD_DIGITS = 9

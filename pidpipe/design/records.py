@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.cases import CaseSpec, regime
+from pidpipe.config.derived import cell_fill_pct, poured_fill
 from pidpipe.design.ceq_table import COORDINATE_COLUMNS, signal_quality
 from pidpipe.design.packing_noise import LOADS_COLUMN, cell_loads, combine_loads, format_loads
 from pidpipe.measurement.case_record import CaseRecord
@@ -102,7 +103,8 @@ def missing_record(case: CaseSpec) -> CaseRecord:
 
 
 def records_to_table(records: Iterable[CaseRecord],
-                     expected: Iterable[CaseSpec] | None = None) -> pd.DataFrame:
+                     expected: Iterable[CaseSpec] | None = None,
+                     full_cell_spheres: int | None = None) -> pd.DataFrame:
     """The C_eq table: one row per grid point (f, G, r), replicates averaged.
 
     Parameters
@@ -112,6 +114,11 @@ def records_to_table(records: Iterable[CaseRecord],
         :func:`pidpipe.steps.cases.failed_record`).
     expected : iterable of CaseSpec, optional
         The campaign's cases; one without a record gives a ``missing`` replicate.
+    full_cell_spheres : int, optional
+        Spheres at 100 %. Given, a row's ``fill_pct`` is the fill its cells hold
+        (:func:`cell_fill`: 23.81 % for the 5 of 21 spheres a case named 25 % pours), so that
+        every row, whatever fill it was named by, sits where its sphere count puts it; without
+        it, the fill the case is named by.
 
     Returns
     -------
@@ -131,12 +138,23 @@ def records_to_table(records: Iterable[CaseRecord],
         by_id.setdefault(case.case_id, missing_record(case))
     groups: dict[tuple[float, float, float], list[CaseRecord]] = {}
     for record in by_id.values():
-        key = (float(record.freq_hz), float(record.accel_g), float(record.fill_pct))
+        key = (float(record.freq_hz), float(record.accel_g), cell_fill(record, full_cell_spheres))
         groups.setdefault(key, []).append(record)
     rows = [_table_row(point, sorted(group, key=lambda r: int(r.replicate)))
             for point, group in sorted(groups.items())]
     table = pd.DataFrame(rows, columns=list(TABLE_COLUMNS))
     return table
+
+
+def cell_fill(record: CaseRecord, full_cell_spheres: int | None) -> float:
+    """The fill (%) a record's cells hold (:func:`pidpipe.config.derived.cell_fill_pct` of its
+    sphere count, or of the count its named fill pours when it has none, e.g. a missing
+    record); its named fill when ``full_cell_spheres`` is None."""
+    if full_cell_spheres is None:
+        return float(record.fill_pct)
+    if record.n_spheres:
+        return cell_fill_pct(int(record.n_spheres), full_cell_spheres)
+    return poured_fill(float(record.fill_pct), full_cell_spheres)[0]
 
 
 def _table_row(point: tuple[float, float, float], replicates: list[CaseRecord]) -> dict:

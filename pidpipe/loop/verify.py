@@ -7,15 +7,18 @@ optimisation (``results/optimum.json``), five points of its band [f_lo, f_hi] x 
 the four corners and the centre ((f_lo + f_hi)/2, (G_lo + G_hi)/2; the band mean takes f and G
 uniform in their bands). The design's fill r_d stands in general for a fractional number of
 spheres per cell; a cell holds whole spheres, so the DEM pours n = round half up of
-(full_cell_spheres x r_d / 100), as for every fill of the campaign, and the case's fill is that
-count's, 100 n / full_cell_spheres, rounded to 1e-3 % (which gives n back). The surrogate is
-read at the design's own fill r_d: its fill axis is the grid's nominal fill, each grid fill
-having been poured the same way (r = 50 % of 21 spheres is 11 spheres), so r_d is where the
-surrogate says what the design gives, and the DEM case is what a cell filled at r_d holds; the
-rounding to whole spheres between grid points is part of what is checked. Points that two
-designs share (the same sphere count, f and G, e.g. a peak and a band_mean design at one fill)
-are one case, run once (:func:`unique_case_ids`); the table keeps a row per design and point,
-each with the surrogate at its own design's fill.
+(full_cell_spheres x r_d / 100), the count most of the design's cells hold (its
+``spheres_left_over`` cells hold the next count up), and the case's fill is that count's,
+100 n / full_cell_spheres, rounded to 1e-3 % (which gives n back;
+:func:`pidpipe.config.derived.poured_fill`). The surrogate is read at that same fill: its fill
+axis is the fill a cell holds (every row of the C_eq table sits at its sphere count's fill,
+:func:`pidpipe.design.records.records_to_table`), so the comparison is of one cell with n spheres
+against what the surrogate says such a cell gives, and ``design_fill_pct`` only records the
+design it verifies. (Read at r_d instead, the surrogate gives a value between n - 1 and n
+spheres, which no poured cell is: a design at 32.07 % of 21 spheres was flagged at |z| = 3.66
+against 2.11 read at its 7 spheres, ``benchmarks/experiments/shared_packings_verify.py``.) Points
+that two designs share (the same sphere count, f and G, e.g. a peak and a band_mean design at
+one fill) are one case, run once (:func:`unique_case_ids`).
 
 The surrogate's standard uncertainty (:func:`surrogate_uncertainty`)
 --------------------------------------------------------------------
@@ -60,7 +63,7 @@ surrogate models); ``surrogate_off`` is |z_combined| > ``flag_z``.
 The effective mass is compared the same way when there is an m_eff surrogate
 (:func:`m_eff_predictions`, the campaign's GP of one cell's m_eff): the verifying case's m_eff
 of the mean cell ± its SEM (its record's ``harmonics``) against the surrogate's prediction ±
-its predictive standard uncertainty (with the excess scatter), read at the design's fill as
+its predictive standard uncertainty (with the excess scatter), read at the case's fill as
 C_eq is, and z_m_eff = (m_dem - m_s) / sqrt(SEM_dem^2 + u_m^2); ``m_eff_off`` is
 |z_m_eff| > ``flag_z``. Without an m_eff surrogate, or a record without harmonics, those
 columns are NaN.
@@ -74,7 +77,7 @@ import numpy as np
 import pandas as pd
 
 from pidpipe.cases import CaseSpec
-from pidpipe.config.derived import spheres_at_fill
+from pidpipe.config.derived import poured_fill
 from pidpipe.errors import PidpipeError
 from pidpipe.measurement.case_record import CaseRecord
 
@@ -83,9 +86,6 @@ VERIFIED_KINDS: tuple[str, ...] = ("band_mean", "peak")
 
 #: The points of a band, in the table's order.
 POINT_NAMES: tuple[str, ...] = ("f_lo_G_lo", "f_lo_G_hi", "f_hi_G_lo", "f_hi_G_hi", "centre")
-
-#: Decimals of a verifying case's fill, percent.
-FILL_DECIMALS = 3
 
 #: Columns of the plan (results/verify/points.csv), one row per design and point.
 POINT_COLUMNS: tuple[str, ...] = (
@@ -116,36 +116,6 @@ def band_points(freq_band: tuple[float, float],
     (f_lo, f_hi), (g_lo, g_hi) = (float(v) for v in freq_band), (float(v) for v in accel_band)
     return [("f_lo_G_lo", f_lo, g_lo), ("f_lo_G_hi", f_lo, g_hi), ("f_hi_G_lo", f_hi, g_lo),
             ("f_hi_G_hi", f_hi, g_hi), ("centre", 0.5 * (f_lo + f_hi), 0.5 * (g_lo + g_hi))]
-
-
-def poured_fill(design_fill_pct: float, full_cell_spheres: int) -> tuple[float, int]:
-    """The fill (%) and sphere count the DEM pours for a design's fill.
-
-    Parameters
-    ----------
-    design_fill_pct : float
-        The design's fill, percent (a fractional number of spheres per cell in general).
-    full_cell_spheres : int
-        Spheres at 100 %.
-
-    Returns
-    -------
-    (float, int)
-        100 n / full_cell_spheres rounded to :data:`FILL_DECIMALS`, and n.
-
-    Raises
-    ------
-    PidpipeError
-        The fill holds no whole sphere.
-    """
-    n_spheres = spheres_at_fill(int(full_cell_spheres), float(design_fill_pct))
-    if n_spheres < 1:
-        raise PidpipeError(f"a design's fill of {design_fill_pct:g} % holds no whole sphere "
-                           f"({full_cell_spheres} spheres fill a cell): nothing to verify")
-    fill_pct = round(100.0 * n_spheres / int(full_cell_spheres), FILL_DECIMALS)
-    if spheres_at_fill(int(full_cell_spheres), fill_pct) != n_spheres:    # cannot happen for
-        raise PidpipeError(f"fill {fill_pct:g} % does not give {n_spheres} spheres back")  # sane sizes
-    return fill_pct, n_spheres
 
 
 def plan_points(designs: list[dict], full_cell_spheres: int,
@@ -213,8 +183,8 @@ def surrogate_uncertainty(surrogate, points: pd.DataFrame, draws: int,
     ----------
     surrogate : pidpipe.design.surrogate.Surrogate
     points : pandas.DataFrame
-        With ``freq_hz`` (Hz), ``accel_g`` (g) and ``design_fill_pct`` (%, where the surrogate
-        is read), m rows.
+        With ``freq_hz`` (Hz), ``accel_g`` (g) and ``fill_pct`` (%, the case's fill, where the
+        surrogate is read), m rows.
     draws, seed : int
         Refits on the table redrawn within its SEMs, and their seed (0 draws: no noise part);
         unused for a surrogate with its own predictive uncertainty (``gp``).
@@ -270,7 +240,7 @@ def m_eff_predictions(m_eff_surrogate, points: pd.DataFrame) -> pd.DataFrame:
         The campaign's surrogate of one cell's m_eff, kg (``results/surrogate_m_eff.json``);
         None: every value NaN.
     points : pandas.DataFrame
-        As :func:`surrogate_uncertainty`, m rows; read at ``design_fill_pct`` held to the
+        As :func:`surrogate_uncertainty`, m rows; read at ``fill_pct`` held to the
         surrogate's fill domain.
 
     Returns
@@ -293,12 +263,12 @@ def m_eff_predictions(m_eff_surrogate, points: pd.DataFrame) -> pd.DataFrame:
 
 
 def _surrogate_query(surrogate, points: pd.DataFrame):
-    """(f, G, fill held to the surrogate's fill domain, a note per point) of the plan's points."""
-    freq, accel, fill = (points[c].to_numpy(dtype=float)
-                         for c in ("freq_hz", "accel_g", "design_fill_pct"))
+    """(f, G, fill held to the surrogate's fill domain, a note per point) of the plan's points:
+    each read at its case's fill, the fill its cells hold."""
+    freq, accel, fill = (points[c].to_numpy(dtype=float) for c in ("freq_hz", "accel_g", "fill_pct"))
     lo, hi = surrogate.domain["fill_pct"]
     held = np.clip(fill, lo, hi)
-    notes = [f"surrogate at the fill domain's edge {h:g} % (the design's fill is {r:g} %)"
+    notes = [f"surrogate at the fill domain's edge {h:g} % (the case's fill is {r:g} %)"
              if h != r else "" for r, h in zip(fill, held)]
     return freq, accel, held, notes
 

@@ -3,7 +3,7 @@ designs' verifying points.
 
 Every point is at a whole-sphere fill: the design's fill r_d is poured as n = round half up of
 (full_cell_spheres * r_d / 100) spheres, at fill 100 n / full_cell_spheres
-(:func:`pidpipe.loop.verify.poured_fill`), as every case of the campaign is.
+(:func:`pidpipe.config.derived.poured_fill`), as every case of the campaign is.
 
 New cases (:func:`new_case_candidates`)
     For a band design (``band_mean``, ``worst_case``): the 3 x 3 points of its band (corners,
@@ -31,7 +31,8 @@ import pandas as pd
 
 from pidpipe.design.ceq_table import SEM_COLUMN
 from pidpipe.design.optimisation import OptimisationResult
-from pidpipe.loop.verify import band_points, poured_fill
+from pidpipe.config.derived import poured_fill
+from pidpipe.loop.verify import band_points
 from pidpipe.refine.table import KEY_DECIMALS, case_key
 
 #: Effort (cells x cycles) after an extension over the effort before: 4 halves the SEM.

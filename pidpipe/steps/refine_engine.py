@@ -285,15 +285,16 @@ class CaseEngine:
         """
         cases, more = list(cases), list(more)
         records = self._records([self.plan(request) for request in cases + more])
-        rows = [_row(record) for record in records[:len(cases)]]
-        rows += [pool_rows(request.base, _row(record))
+        full = self.pour.fill.full_cell_spheres
+        rows = [_row(record, full) for record in records[:len(cases)]]
+        rows += [pool_rows(request.base, _row(record, full))
                  for request, record in zip(more, records[len(cases):])]
         return pd.DataFrame(rows)
 
     def verify(self, points) -> pd.DataFrame:
         """``verify(points)``: one row per verifying request."""
         records = self._records([self.plan(request) for request in points])
-        return pd.DataFrame([_row(record) for record in records])
+        return pd.DataFrame([_row(record, self.pour.fill.full_cell_spheres) for record in records])
 
     def _records(self, plans: list[Plan]) -> list:
         """The plans' records, in order: up to ``cores`` at a time in worker processes (with
@@ -378,12 +379,13 @@ class CaseEngine:
         return record, spent
 
 
-def _row(record) -> dict:
-    """The table row of a record (:func:`pidpipe.design.records.records_to_table`), with the
+def _row(record, full_cell_spheres: int) -> dict:
+    """The table row of a record (:func:`pidpipe.design.records.records_to_table`, at the fill
+    its ``full_cell_spheres``-sphere cells hold), with the
     cells it measured (``cells``) and its measured engine CPU (``engine_cpu_s``, s)."""
     from pidpipe.design.records import records_to_table
 
-    row = records_to_table([record]).iloc[0].to_dict()
+    row = records_to_table([record], full_cell_spheres=full_cell_spheres).iloc[0].to_dict()
     row["cells"] = len(record.cells or ()) or 1
     row["engine_cpu_s"] = _record_cpu_s(record)
     return row

@@ -17,9 +17,13 @@ from pidpipe.refine.table import GRID_SOURCE
 logger = logging.getLogger("pidpipe.campaign")
 
 
-def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] | None = None) -> pd.DataFrame:
+def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] | None = None,
+                  full_cell_spheres: int | None = None) -> pd.DataFrame:
     """Aggregate case records into the C_eq table (CSV, written atomically): the columns of
     :data:`pidpipe.design.records.TABLE_COLUMNS` and ``source`` (``grid``).
+
+    A row's ``fill_pct`` is the fill its cells hold when ``full_cell_spheres`` is given (the
+    workflow always gives it; :func:`pidpipe.design.records.records_to_table`).
 
     Parameters
     ----------
@@ -29,6 +33,8 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
         The CSV to write.
     case_ids : list of str, optional
         The campaign's cases; one without a record path is ``missing`` too.
+    full_cell_spheres : int, optional
+        Spheres at 100 % fill (config ``fill``).
 
     Returns
     -------
@@ -37,7 +43,7 @@ def collect_table(record_paths: list[str], table_path: str, case_ids: list[str] 
     records = [read_record(p) for p in record_paths if Path(p).is_file()]
     expected = [CaseSpec.from_id(c) for c in case_ids or []]
     expected += [CaseSpec.from_id(Path(p).stem) for p in record_paths if not Path(p).is_file()]
-    table = records_to_table(records, expected)
+    table = records_to_table(records, expected, full_cell_spheres)
     # where the rows came from, as the refinement loop's table says it (its rows add
     # "refine round N"; results/ceq_table_refined.csv)
     table["source"] = GRID_SOURCE

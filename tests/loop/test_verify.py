@@ -120,16 +120,20 @@ def test_the_surrogates_uncertainty_holds_the_tables_noise_and_the_interpolation
     assert no_draws["note"].str.contains("without its noise part").all()
 
 
-def test_the_surrogate_is_read_at_the_designs_fill_and_a_fill_off_its_domain_is_held_and_said():
+def test_the_surrogate_is_read_at_the_cases_fill_and_a_fill_off_its_domain_is_held_and_said():
     surrogate = fit_surrogate(grid_table())
     points = plan_points([design("A", "band_mean", 44.0)], 21)    # 9 spheres = 42.857 %
+    assert np.all(points["fill_pct"] == 42.857)
     u = surrogate_uncertainty(surrogate, points, draws=0, seed=1)
     np.testing.assert_allclose(u["ceq_coupon_surrogate_ns_m"],
-                               surrogate.predict(points["freq_hz"], points["accel_g"], 44.0))
+                               surrogate.predict(points["freq_hz"], points["accel_g"], 42.857))
+    # between 9 and 9.24 spheres the smooth C_eq differs by 2.7 %: reading at r_d would show it
+    at_design = surrogate.predict(points["freq_hz"], points["accel_g"], 44.0)
+    assert np.all(np.abs(u["ceq_coupon_surrogate_ns_m"] / at_design - 1) > 0.01)
     assert not u["note"].str.contains("edge").any()
-    points = plan_points([design("A", "band_mean", 24.0)], 21)    # an optimum from elsewhere
+    points = plan_points([design("A", "band_mean", 24.0)], 21)    # 5 spheres = 23.81 %
     u = surrogate_uncertainty(surrogate, points, draws=0, seed=1)
-    assert u["note"].str.contains("edge 25 % (the design's fill is 24 %)", regex=False).all()
+    assert u["note"].str.contains("edge 25 % (the case's fill is 23.81 %)", regex=False).all()
 
 
 def record(case_id, value, sem, status="ok", flags=()):
@@ -157,10 +161,11 @@ def test_compare_flags_a_surrogate_that_is_off_and_keeps_a_shared_case_in_each_d
     table = compare(points, records, predictions, flag_z=2.0)
     assert list(table.columns) == list(VERIFY_COLUMNS) and len(table) == 10
     assert table.loc[peak & (table["case_id"] != off_case), "z_combined"].abs().max() < 1e-9
-    # band_mean reads the surrogate at its own fill (44.5 %): the same case, another prediction
+    # both designs' rows read the surrogate at the case's 9 spheres: one case, one prediction
     band = table[~peak]
-    assert np.all(band["ceq_coupon_surrogate_ns_m"].to_numpy()
-                  > table.loc[peak, "ceq_coupon_surrogate_ns_m"].to_numpy())
+    np.testing.assert_allclose(band["ceq_coupon_surrogate_ns_m"].to_numpy(),
+                               table.loc[peak, "ceq_coupon_surrogate_ns_m"].to_numpy(), rtol=1e-12)
+    assert set(band["design_fill_pct"]) == {44.5} and set(band["fill_pct"]) == {42.857}
     np.testing.assert_allclose(band["z_combined"], band["difference_ns_m"]
                                / np.hypot(band["ceq_coupon_dem_sem_ns_m"], band["surrogate_u_ns_m"]))
     off = table[table["surrogate_off"]]

@@ -27,13 +27,13 @@ def test_a_gp_surrogate_gives_its_own_predictive_uncertainty_with_the_scatter():
     gp = fit_surrogate(table, method="gp")
     points = plan_points([design("A", "peak", 44.0)], 21)
     u = surrogate_uncertainty(gp, points, draws=20, seed=1)
-    value, sd = gp.predict_with_uncertainty(points["freq_hz"], points["accel_g"], 44.0,
-                                            include_scatter=True)
+    value, sd = gp.predict_with_uncertainty(points["freq_hz"], points["accel_g"],
+                                            points["fill_pct"], include_scatter=True)
     np.testing.assert_allclose(u["ceq_coupon_surrogate_ns_m"], value)
     np.testing.assert_allclose(u["surrogate_u_ns_m"], sd)
     assert (u["surrogate_u_method"] == "gp_predictive").all()
     assert u["surrogate_noise_sd_ns_m"].isna().all() and u["surrogate_interp_sd_ns_m"].isna().all()
-    _, without = gp.predict_with_uncertainty(points["freq_hz"], points["accel_g"], 44.0)
+    _, without = gp.predict_with_uncertainty(points["freq_hz"], points["accel_g"], points["fill_pct"])
     assert np.all(u["surrogate_u_ns_m"] >= without - 1e-12)
     # the interpolants keep the bootstrap and leave-one-out construction
     rbf = surrogate_uncertainty(fit_surrogate(table), points, draws=20, seed=1)
@@ -49,8 +49,8 @@ def test_the_dem_m_eff_is_compared_with_the_m_eff_surrogate():
     points = plan_points([design("A", "peak", 44.0)], 21)
     predictions = pd.concat([surrogate_uncertainty(ceq, points, draws=0, seed=1),
                              m_eff_predictions(m_eff, points)], axis=1)
-    value, sd = m_eff.predict_with_uncertainty(points["freq_hz"], points["accel_g"], 44.0,
-                                               include_scatter=True)
+    value, sd = m_eff.predict_with_uncertainty(points["freq_hz"], points["accel_g"],
+                                               points["fill_pct"], include_scatter=True)
     np.testing.assert_allclose(predictions["m_eff_surrogate_kg"], value)
     np.testing.assert_allclose(predictions["m_eff_surrogate_u_kg"], sd)
     assert np.all(sd > 0)

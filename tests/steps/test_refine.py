@@ -74,7 +74,8 @@ def test_an_extension_runs_three_times_the_base_effort_and_pools_it(problem):
     assert row["cells"] == 4 and row["n_replicates"] == 2
     assert row["ceq_coupon_sem_ns_m"] < base["ceq_coupon_sem_ns_m"]
     assert row["ceq_coupon_ns_m"] != base["ceq_coupon_ns_m"]
-    assert engine.runs[-1] == "f500Hz_G5_r25pct_rep101"
+    # the row sits at the fill its cells hold (5 of 21 spheres), and the extension is named by it
+    assert base["fill_pct"] == 23.81 and engine.runs[-1] == "f500Hz_G5_r23.81pct_rep101"
     # the base's one cell has no loads; the extension's three cells carry theirs, with the
     # extension's weight in the pooled mean
     loads = parse_loads(row[LOADS_COLUMN])

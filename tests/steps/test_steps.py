@@ -157,6 +157,20 @@ def test_expected_case_without_record_is_missing():
     assert math.isnan(table["ceq_coupon_ns_m"].iloc[1])
 
 
+def test_a_row_sits_at_the_fill_its_cells_hold_whatever_fill_named_the_case():
+    """A case named 50 % pours 11 of 21 spheres: its row is at 52.381 %, the same place as a
+    case the loop named by that count, so that the surrogate sees one fill axis."""
+    named = record(500.0, 5.0, 50.0)                                    # 11 spheres
+    by_count = record(1000.0, 5.0, 52.381)                              # 11 spheres too
+    expected = [CaseSpec(500.0, 5.0, 25.0)]                             # missing: 5 spheres
+    table = records_to_table([named, by_count], expected, full_cell_spheres=21)
+    assert list(table["fill_pct"]) == [23.81, 52.381, 52.381]
+    assert list(table["case_id"]) == ["f500Hz_G5_r25pct_rep0", "f500Hz_G5_r50pct_rep0",
+                                      "f1000Hz_G5_r52.381pct_rep0"]
+    # without the cell size, rows keep the fill they are named by
+    assert list(records_to_table([named]).fill_pct) == [50.0]
+
+
 def test_ok_replicates_are_used_and_the_others_named_in_flags():
     records = [record(replicate=0, ceq=12.0, sem=1.0),
                record(replicate=1, status="failed", ceq=float("nan"), sem=float("nan")),

@@ -16,6 +16,7 @@ from pidpipe.steps.params import (WILDCARD_NUMBER, WILDCARD_REPLICATE, campaign_
                                   validation_packing_ids, verify_case_config, workflow_settings)
 from pidpipe.steps.verify import verify_case_ids
 from pidpipe.config.settings import ShakeSettings
+from pidpipe.config.derived import full_cell_spheres
 from pidpipe.config.pilots import grid_case_config
 from pidpipe.config.stages import stage_config
 from pidpipe.steps import resources as cluster_resources
@@ -56,6 +57,11 @@ wildcard_constraints:
 def get_case_ids():
     """Every case id of the campaign."""
     return [case.case_id for case in CASES]
+
+
+def get_full_cell_spheres():
+    """Spheres in a cell at 100 % fill: the table places each row at the fill its cells hold."""
+    return full_cell_spheres(config)
 
 
 def get_case_records():

@@ -12,6 +12,7 @@ rule collect_table:
         ),
     params:
         case_ids=get_case_ids(),
+        full_cell_spheres=get_full_cell_spheres(),
     log:
         "logs/collect_table.log",
     script:

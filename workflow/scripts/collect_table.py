@@ -9,4 +9,5 @@ run_step(
     record_paths=list(snakemake.input.records),
     table_path=snakemake.output.table,
     case_ids=list(snakemake.params.case_ids),
+    full_cell_spheres=int(snakemake.params.full_cell_spheres),
 )
