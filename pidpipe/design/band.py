@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
+from pidpipe.design.built_cells import cells_total, whole_sphere_cells
 from pidpipe.design.optimisation import (
     Budget,
     CeqModel,
@@ -106,25 +107,27 @@ class BandSummary:
     best_accel_g: float
 
 
-def evaluate_band(model: CeqModel, bounds: dict, budget: Budget, fill_pct: float, n_cells: float,
+def evaluate_band(model: CeqModel, bounds: dict, budget: Budget, n_cells: int,
                   rule: BandRule) -> BandSummary:
-    """Total C_eq of n_c cells at fill r over the band: mean, worst and best.
+    """Total C_eq of n_c filled cells over the band, the cells as built: mean, worst and best.
 
     Parameters
     ----------
     model : CeqModel
     bounds : dict
-        ``freq_hz`` and ``accel_g`` bands (from :func:`environment_bounds`).
+        ``freq_hz`` and ``accel_g`` bands (from :func:`environment_bounds`), and ``fill_pct``
+        (the surrogate's fill domain, %) to which the cells' fills are held.
     budget : Budget
-    fill_pct, n_cells : float
-        The design (%, cells).
+    n_cells : int
+        The design's filled cells; the budget's spheres fill them with whole spheres
+        (:func:`pidpipe.design.built_cells.whole_sphere_cells`).
     rule : BandRule
     """
-    per_cell = 1.0 / budget.n_cells_coupon * n_cells
+    cells = whole_sphere_cells(budget, n_cells, bounds.get("fill_pct"))
     f, g, w = rule.quadrature(bounds)
-    mean = float(np.sum(w * model.predict(f, g, np.full_like(f, fill_pct)))) * per_cell
+    mean = float(np.sum(w * cells_total(model, f, g, cells, budget.n_cells_coupon)))
     f, g = rule.grid(bounds)
-    values = np.asarray(model.predict(f, g, np.full_like(f, fill_pct)), dtype=float) * per_cell
+    values = cells_total(model, f, g, cells, budget.n_cells_coupon)
     lo, hi = int(np.argmin(values)), int(np.argmax(values))
     return BandSummary(mean_total_ceq_ns_m=mean, worst_total_ceq_ns_m=float(values[lo]),
                        worst_freq_hz=float(f[lo]), worst_accel_g=float(g[lo]),
@@ -321,11 +324,14 @@ def optimise_band_design(model: CeqModel, environment: Environment, budget: Budg
 
 
 def _whole_cell_band_design(problem: _BandProblem, optimum):
-    """The better whole number of cells next to the optimum's n_c, by the band objective."""
+    """The better whole number of cells next to the optimum's n_c, by the band objective of its
+    cells as built (:mod:`pidpipe.design.built_cells`)."""
     budget = problem.budget
     designs = []
-    for n_cells, per_cell, fill in whole_cell_candidates(budget, optimum.n_cells,
-                                                         (problem.lo[0], problem.hi[0])):
-        total = problem.objective_at(fill, float(n_cells))
+    bounds = (problem.lo[0], problem.hi[0])
+    for n_cells, per_cell, fill in whole_cell_candidates(budget, optimum.n_cells, bounds):
+        totals = sum(problem.band_totals(cell_fill, float(count))
+                     for cell_fill, count in whole_sphere_cells(budget, n_cells, bounds))
+        total = float(problem.band_objective(totals))
         designs.append(make_design(budget, n_cells, per_cell, fill, total, None, None))
     return max(designs, key=lambda d: d.total_ceq_ns_m)

@@ -84,8 +84,7 @@ def optimise_design(model: CeqModel, environment: Environment, budget: Budget, k
     else:
         result = optimise_band_design(model, environment, budget, kind, rule=search.rule,
                                       initial_fills=initial, **options)
-    result.band = evaluate_band(model, result.bounds, budget, result.design.fill_pct,
-                                result.design.n_cells, search.rule)
+    result.band = evaluate_band(model, result.bounds, budget, result.design.n_cells, search.rule)
     result.regime_warning = regime_warning(result.bounds)
     return result
 

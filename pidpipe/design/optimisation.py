@@ -27,7 +27,9 @@ budget allows and n_c = n_b / spheres_per_cell(r), so every start is feasible. E
 objective is recorded at every iteration. Converged end points closer than ``cluster_tol`` (in
 scaled f, G, r) are one local optimum. The final design rounds n_c to a whole number of cells
 (the better of floor and ceil), then re-derives the spheres per cell n_b / n_c and the fill it
-implies, checks the fill lies in the domain and reports the total C_eq there.
+implies, checks the fill lies in the domain and reports the total C_eq of its cells as built:
+whole spheres, w = floor(n_b / n_c) in each and one more in n_b - w n_c of them, each cell read
+at its own sphere count's fill (:mod:`pidpipe.design.built_cells`).
 
 Environments outside the surrogate's domain are refused with
 :class:`~pidpipe.errors.DomainError`; ``clip_environment=True`` explicitly narrows the band to
@@ -46,6 +48,7 @@ from scipy.stats import qmc
 
 # The budget and the environment are the config's own types (one definition each).
 from pidpipe.config.settings import Budget, Environment  # noqa: F401
+from pidpipe.design.built_cells import cells_total, whole_sphere_cells
 from pidpipe.errors import ConfigError, DomainError, PidpipeError
 
 #: Order of the optimisation variables.
@@ -505,7 +508,8 @@ def whole_cell_design(problem: _Problem, optimum: LocalOptimum) -> Design:
     """Round n_c to a whole number of cells and re-derive the fill from the budget.
 
     Of the candidates of :func:`whole_cell_candidates` the better one, by the total C_eq at
-    the optimum's f and G, wins.
+    the optimum's f and G of its cells as built (whole spheres,
+    :mod:`pidpipe.design.built_cells`), wins.
 
     Raises
     ------
@@ -516,8 +520,10 @@ def whole_cell_design(problem: _Problem, optimum: LocalOptimum) -> Design:
     r_lo, r_hi = problem.lo[1], problem.hi[1]
     designs = []
     for n_cells, per_cell, fill in whole_cell_candidates(budget, optimum.n_cells, (r_lo, r_hi)):
-        ceq_cell = float(problem.model.predict(optimum.freq_hz, optimum.accel_g, fill)) / budget.n_cells_coupon
-        designs.append(make_design(budget, n_cells, per_cell, fill, ceq_cell * n_cells,
+        cells = whole_sphere_cells(budget, n_cells, (r_lo, r_hi))
+        total = float(cells_total(problem.model, [optimum.freq_hz], [optimum.accel_g], cells,
+                                  budget.n_cells_coupon)[0])
+        designs.append(make_design(budget, n_cells, per_cell, fill, total,
                                    optimum.freq_hz, optimum.accel_g))
     return max(designs, key=lambda d: d.total_ceq_ns_m)
 

@@ -1,20 +1,27 @@
 """Each design's 95 % interval of its total C_eq, from the surrogate's predictive uncertainty.
 
-A design (:mod:`pidpipe.design.designs`) fills n_c cells at fill r_d; its total C_eq is
-T = (n_c / N) * J[C], with J the design's functional of the coupon's C_eq over the band:
+A design (:mod:`pidpipe.design.designs`) fills n_c cells with whole spheres: n_k cells at the
+fill r_k of each sphere count k it holds (:func:`pidpipe.design.built_cells.whole_sphere_cells`:
+one count, or two neighbouring ones). Its total C_eq is T = J[sum_k (n_k / N) C(., ., r_k)],
+a linear functional a^T C of the coupon's C_eq at a set of points, with J the design's
+functional over the band:
 
 ``peak``
-    C at the design's point (f*, G*, r_d): sigma_T = (n_c / N) * sigma(f*, G*, r_d).
+    at the design's point (f*, G*): the points (f*, G*, r_k), weights a_k = n_k / N.
 ``band_mean``
-    sum_k w_k C(f_k, G_k, r_d) over the band's Gauss-Legendre nodes. With a model that offers
-    ``predict_joint(f, G, r) -> (mean, covariance)`` the variance is w^T Sigma w (the GP drawn
-    jointly over the nodes); otherwise sigma_T = (n_c / N) * sum_k w_k sigma_k, the value for
-    fully correlated nodes, which is an upper bound of the true standard deviation (Cauchy-
-    Schwarz: w^T Sigma w <= (sum_k w_k sigma_k)^2 for any correlation), so the interval is
-    conservative.
+    sum_i w_i over the band's Gauss-Legendre nodes: the points (f_i, G_i, r_k), weights
+    a_ik = w_i n_k / N.
 ``worst_case``
-    min_k C(f_k, G_k, r_d) over the band's grid: sigma_T = (n_c / N) * sigma at the grid point
-    that is the minimum (the minimum's own uncertainty when it does not change place).
+    min_i over the band's grid of the built cells' total: the points (f_i*, G_i*, r_k) of the
+    grid point i* that is the minimum, weights n_k / N (the minimum's own uncertainty when it
+    does not change place).
+
+With a model that offers ``predict_joint(f, G, r) -> (mean, covariance)`` the variance is
+a^T Sigma a (the GP drawn jointly over the points: ``joint``); otherwise sigma_T = sum |a| sigma,
+the value for fully correlated points, an upper bound of the true standard deviation
+(Cauchy-Schwarz: a^T Sigma a <= (sum |a| sigma)^2 for any correlation), so the interval is
+conservative (``correlated bound``). A peak or worst-case design of one sphere count has one
+point, and sigma_T = a sigma exactly (``point``, ``minimum point``).
 
 The interval is T +- 1.96 sigma_T (normal predictive distribution). It is the interval of the
 design's value as the surrogate predicts it at the design found; it does not hold the
@@ -29,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pidpipe.design.band import BandRule
+from pidpipe.design.built_cells import cells_weights, whole_sphere_cells
 from pidpipe.design.optimisation import OptimisationResult
 
 #: Normal quantile of a two-sided 95 % interval.
@@ -99,33 +107,37 @@ def design_interval(model, result: OptimisationResult, rule: BandRule) -> Design
         The band rule the design was optimised with.
     """
     design, budget = result.design, result.budget
-    per_cell = design.n_cells / budget.n_cells_coupon
-    r = float(design.fill_pct)
+    cells = whole_sphere_cells(budget, int(design.n_cells), result.bounds.get("fill_pct"))
+    fills, shares = cells_weights(cells, budget.n_cells_coupon)
+    f_star = g_star = float("nan")
     if result.kind == "peak":
-        m, s = _predict(model, [design.freq_hz], [design.accel_g], r)
-        value, std, method = m[0], s[0], "point"
+        f, g, w = np.array([design.freq_hz], dtype=float), np.array([design.accel_g], dtype=float), np.ones(1)
         f_star, g_star = float(design.freq_hz), float(design.accel_g)
     elif result.kind == "band_mean":
         f, g, w = rule.quadrature(result.bounds)
-        m, s = _predict(model, f, g, r)
-        value = float(np.sum(w * m))
-        if hasattr(model, "predict_joint"):
-            _, cov = model.predict_joint(f, g, np.full_like(f, r))
-            std, method = float(np.sqrt(max(w @ np.asarray(cov, dtype=float) @ w, 0.0))), "joint"
-        else:
-            std, method = float(np.sum(w * s)), "correlated bound"
-        f_star = g_star = float("nan")
     else:
         f, g = rule.grid(result.bounds)
-        m, s = _predict(model, f, g, r)
-        k = int(np.argmin(m))
-        value, std, method = m[k], s[k], "minimum point"
-        f_star = g_star = float("nan")
-    return DesignInterval(environment=result.environment.name, kind=result.kind, fill_pct=r,
-                          n_cells=int(design.n_cells),
+        m, _ = _predict(model, np.tile(f, fills.size), np.tile(g, fills.size), np.repeat(fills, f.size))
+        k = int(np.argmin(shares @ m.reshape(fills.size, f.size)))
+        f, g, w = f[k:k + 1], g[k:k + 1], np.ones(1)
+    value, std, joint = _linear(model, np.tile(f, fills.size), np.tile(g, fills.size),
+                                np.repeat(fills, f.size), np.outer(shares, w).ravel())
+    single = {"peak": "point", "worst_case": "minimum point"}.get(result.kind)
+    method = single if single and fills.size == 1 else ("joint" if joint else "correlated bound")
+    return DesignInterval(environment=result.environment.name, kind=result.kind,
+                          fill_pct=float(design.fill_pct), n_cells=int(design.n_cells),
                           n_cells_coupon=int(budget.n_cells_coupon), freq_hz=f_star, accel_g=g_star,
-                          total_ceq_ns_m=float(value) * per_cell, std_ns_m=float(std) * per_cell,
-                          method=method)
+                          total_ceq_ns_m=value, std_ns_m=std, method=method)
+
+
+def _linear(model, f, g, r, weights) -> tuple[float, float, bool]:
+    """a^T C at the points and its standard deviation: (value, sigma, whether joint)."""
+    m, s = _predict(model, f, g, r)
+    value = float(weights @ m)
+    if weights.size > 1 and hasattr(model, "predict_joint"):
+        _, cov = model.predict_joint(f, g, r)
+        return value, float(np.sqrt(max(weights @ np.asarray(cov, dtype=float) @ weights, 0.0))), True
+    return value, float(np.sum(np.abs(weights) * s)), False
 
 
 def design_intervals(model, results: list[OptimisationResult],
@@ -134,7 +146,8 @@ def design_intervals(model, results: list[OptimisationResult],
     return [design_interval(model, result, rule) for result in results]
 
 
-def _predict(model, f, g, r: float) -> tuple[np.ndarray, np.ndarray]:
-    f = np.asarray(f, dtype=float)
-    mean, std = model.predict_with_uncertainty(f, np.asarray(g, dtype=float), np.full_like(f, r))
+def _predict(model, f, g, r) -> tuple[np.ndarray, np.ndarray]:
+    """The model's mean and standard deviation at the points (f, G, r), arrays, N*s/m."""
+    mean, std = model.predict_with_uncertainty(np.asarray(f, dtype=float), np.asarray(g, dtype=float),
+                                               np.asarray(r, dtype=float))
     return np.asarray(mean, dtype=float), np.asarray(std, dtype=float)

@@ -136,7 +136,7 @@ def test_quadrature_is_exact_for_a_cubic_and_the_grid_has_the_corners():
         def predict(self, f, g, r):
             return np.asarray(f, float) ** 3 * np.asarray(g, float)
 
-    summary = evaluate_band(Cubic(), bounds, Budget(10, 10, 1), 50.0, 1.0, rule)
+    summary = evaluate_band(Cubic(), bounds, Budget(10, 10, 1), 1, rule)
     exact = (300**4 - 250**4) / 4 / 50.0 * 5.5
     assert summary.mean_total_ceq_ns_m == pytest.approx(exact, rel=1e-12)
     assert (summary.worst_freq_hz, summary.worst_accel_g) == (250.0, 5.0)

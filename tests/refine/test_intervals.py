@@ -3,6 +3,8 @@
 import numpy as np
 import pytest
 
+from pidpipe.config.settings import Budget
+from pidpipe.design.built_cells import whole_sphere_cells
 from pidpipe.design.designs import optimise_designs
 from pidpipe.refine.intervals import Z95, design_interval
 from tests._surrogates import FakeSurrogate
@@ -68,3 +70,21 @@ def test_an_interval_is_within_a_fraction_when_its_half_width_is(results):
     fraction = interval.half_width_fraction
     assert interval.within(fraction * 1.0001) and not interval.within(fraction * 0.9999)
     assert Z95 * interval.target_std_ns_m(fraction) == pytest.approx(fraction * interval.total_ceq_ns_m)
+
+
+def test_a_design_of_two_sphere_counts_sums_both_cells_and_their_joint_std():
+    budget = Budget(n_spheres=4400, full_cell_spheres=20, n_cells_coupon=441, n_cells_panel=1000)
+    for result in optimise_designs(TrueModel(), ENVIRONMENTS[:1], budget, SEARCH):
+        cells = whole_sphere_cells(budget, result.design.n_cells, result.bounds["fill_pct"])
+        assert len(cells) == 2, cells                   # 4400 spheres do not divide evenly
+        (r_w, n_w), (r_up, n_up) = cells
+        bound = design_interval(FakeSurrogate(true_ceq, _std), result, SEARCH.rule)
+        joint = design_interval(JointSurrogate(true_ceq, _std), result, SEARCH.rule)
+        assert bound.total_ceq_ns_m == pytest.approx(result.design.total_ceq_ns_m)
+        assert bound.method == "correlated bound" and joint.method == "joint"
+        if result.kind == "peak":
+            f, g = result.design.freq_hz, result.design.accel_g
+            a, b = n_w / 441 * _std(f, g, r_w), n_up / 441 * _std(f, g, r_up)
+            assert bound.std_ns_m == pytest.approx(a + b)
+            assert joint.std_ns_m == pytest.approx(np.hypot(a, b))
+        assert joint.std_ns_m < bound.std_ns_m
