@@ -8,7 +8,8 @@ correlated (:mod:`pidpipe.design.packing_noise`). This refits the campaign's fit
 both ways and compares each with the DEM verify's values (``results/verify.csv``: DEM cases to
 a 5 % standard error on packings of their own, ``benchmarks/verify_dem_5pct.yaml``), with the
 z verify computes (:func:`pidpipe.loop.verify.z_combined`); the surrogate is read at the
-design's fill, as verify reads it, and, third, at the whole-sphere fill the DEM case poured. A table written before rows carried
+design's (mean) fill, and, third, at the whole-sphere fill the DEM case poured, as verify reads
+it. A table written before rows carried
 ``packing_loads`` gets them from the cases' records (:func:`pidpipe.design.records.record_loads`).
 
 Run, in a finished campaign's folder that ``snakemake verify`` ran in:
@@ -67,10 +68,10 @@ def main() -> None:
     points = verify[verify["dem_status"].isin(["ok", "flagged"])].reset_index(drop=True)
     shared = SharedPackings.of(table)
     z = {}
-    poured = points.assign(design_fill_pct=points["fill_pct"])   # the surrogate at the cell's fill
-    for model, fitted, at in (("independent SEMs", table.drop(columns=LOADS_COLUMN), points),
-                              ("packings' covariance", table, points),
-                              ("packings' covariance, read at the poured fill", table, poured)):
+    at_design = points.assign(fill_pct=points["design_fill_pct"])   # the design's mean fill
+    for model, fitted, at in (("independent SEMs", table.drop(columns=LOADS_COLUMN), at_design),
+                              ("packings' covariance", table, at_design),
+                              ("packings' covariance, read at the poured fill", table, points)):
         surrogate = fit_surrogate(fitted, method="gp", allow_holes=True, source=name)
         predicted = surrogate_uncertainty(surrogate, at, draws=0, seed=0)
         z[model] = z_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),

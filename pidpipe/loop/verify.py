@@ -469,6 +469,31 @@ def worst_z_line(table: pd.DataFrame) -> str:
     return "; ".join(parts)
 
 
+def calibration_line(table: pd.DataFrame, flag_z: float) -> str:
+    """What the cases' z say of the surrogate's calibration, for the rule's log.
+
+    ``n case(s): RMS z r; worst |z| w, which the worst of n independent points of a calibrated
+    surrogate exceeds with probability p; |z| > flag_z at k (expected about e)``. Each distinct
+    case counts once (two designs sharing a case read the same prediction). For a calibrated
+    surrogate z is standard normal: RMS z is about 1, and the worst of n exceeds w with
+    probability 1 - (1 - 2 Phi(-w))^n. Points of a design share its fill and packings, so they
+    are not independent and the true probabilities are smaller; ``-`` without a z.
+    """
+    from scipy.stats import norm
+
+    z = table.drop_duplicates("case_id")["z_combined"].to_numpy(dtype=float)
+    z = z[np.isfinite(z)]
+    if z.size == 0:
+        return "-"
+    worst = float(np.max(np.abs(z)))
+    beyond = float(1.0 - (1.0 - 2.0 * norm.sf(worst)) ** z.size)
+    tail = 2.0 * norm.sf(flag_z)
+    return (f"{z.size} case(s): RMS z {math.sqrt(float(np.mean(z**2))):.2f}; worst |z| {worst:.2f}, "
+            f"which the worst of {z.size} independent points of a calibrated surrogate exceeds "
+            f"with probability {beyond:.2g}; |z| > {flag_z:g} at {int(np.sum(np.abs(z) > flag_z))} "
+            f"(expected about {tail * z.size:.1f})")
+
+
 def m_eff_off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the m_eff surrogate is off (for the rule's log)."""
     return _off_lines(table, "m_eff_off", "m_eff ", "m_eff_dem_kg", "m_eff_dem_sem_kg",

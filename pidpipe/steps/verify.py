@@ -125,8 +125,9 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
     from pidpipe.design.records import read_record
     from pidpipe.design.surrogate import load_surrogate
     from pidpipe.figures.verify import plot_verify
-    from pidpipe.loop.verify import (compare, m_eff_off_lines, m_eff_predictions, off_lines,
-                                     stale_records, surrogate_uncertainty, worst_z_line)
+    from pidpipe.loop.verify import (calibration_line, compare, m_eff_off_lines,
+                                     m_eff_predictions, off_lines, stale_records,
+                                     surrogate_uncertainty, worst_z_line)
 
     settings = VerifySettings.from_config(verify)
     points = read_points(points_path)
@@ -155,6 +156,7 @@ def compare_designs(points_path: str, record_paths: list[str], surrogate_path: s
                 table["surrogate_u_method"].iloc[0] if len(table) else "-", settings.flag_z,
                 len(off))
     logger.info("verify: worst |z| per environment: %s", worst_z_line(table))
+    logger.info("verify: %s", calibration_line(table, settings.flag_z))
     for line in off:
         logger.warning("surrogate off: %s", line)
     if m_eff_surrogate is None:

@@ -236,3 +236,22 @@ def test_the_log_names_each_environments_worst_point():
         "z_combined": [0.5, -3.78, 1.2, 0.41, np.nan],
     })
     assert worst_z_line(table) == ("A |z| 3.78 (peak, centre); B |z| 0.41 (peak, centre); C -")
+
+
+def test_the_calibration_line_counts_each_case_once_and_says_how_rare_its_worst_z_is():
+    import pandas as pd
+    from scipy.stats import norm
+
+    from pidpipe.loop.verify import calibration_line
+
+    table = pd.DataFrame({"case_id": ["a", "a", "b", "c", "d"],
+                          "z_combined": [3.0, 3.0, -1.0, 0.0, np.nan]})
+    line = calibration_line(table, 2.0)
+    rms = np.sqrt((9.0 + 1.0 + 0.0) / 3)                      # a counted once, d has no z
+    p = 1 - (1 - 2 * norm.sf(3.0)) ** 3
+    assert line == (f"3 case(s): RMS z {rms:.2f}; worst |z| 3.00, which the worst of 3 independent "
+                    f"points of a calibrated surrogate exceeds with probability {p:.2g}; "
+                    f"|z| > 2 at 1 (expected about {3 * 2 * norm.sf(2.0):.1f})")
+    # the doc's figure: the worst of 30 calibrated points exceeds 2 three times in four
+    assert 1 - (1 - 2 * norm.sf(2.0)) ** 30 == pytest.approx(0.75, abs=0.01)
+    assert calibration_line(table.iloc[4:], 2.0) == "-"
