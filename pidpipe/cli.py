@@ -233,6 +233,7 @@ def check_config_command(args: argparse.Namespace) -> int:
     from pidpipe.cases import grid_cases
     from pidpipe.config import load_config
     from pidpipe.config.schema import check_environments_in_reach
+    from pidpipe.config.derived import poured_fill
     from pidpipe.config.sections import Settings
 
     config = load_config(args.config)
@@ -242,8 +243,11 @@ def check_config_command(args: argparse.Namespace) -> int:
     print(f"{args.config}: valid")
     print(f"  {len(grid_cases(config))} cases: f = {list(grid.freq_hz)} Hz x G = {list(grid.accel_g)} g x "
           f"r = {list(grid.fill_pct)} %")
-    print("  spheres per cell: " + ", ".join(f"{r:g} % -> {fill.spheres(r)}" for r in grid.fill_pct)
-          + f" (full cell = {fill.full_cell_spheres}, fill.definition = {fill.definition})")
+    print("  spheres per cell: " + ", ".join(
+        f"{r:g} % -> {fill.spheres(r)} ({poured_fill(r, fill.full_cell_spheres)[0]:g} %)"
+        for r in grid.fill_pct)
+          + f" (full cell = {fill.full_cell_spheres}, fill.definition = {fill.definition}; the "
+          f"table and the surrogate place each case at the fill in brackets, the one its cells hold)")
     sampling = settings.sampling
     print(f"  pilots: {sampling.cells_per_run} cells x {sampling.measured_cycles} measured cycles"
           + _short_pilots(config))
