@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 
 from pidpipe.config import budget_spheres, full_cell_spheres, load_config
+from pidpipe.config.derived import poured_fill
 from pidpipe.design.ceq_table import OPTIONAL_COLUMNS, REQUIRED_COLUMNS, read_ceq_table
 from tests._snakemake import (
     LIGGGHTS,
@@ -62,7 +63,10 @@ def test_table_has_every_case_with_values_errors_and_fidelity(campaign_dir, conf
     grid = config["grid"]
     assert set(table["freq_hz"]) == set(grid["freq_hz"])
     assert set(table["accel_g"]) == set(grid["accel_g"])
-    assert set(table["fill_pct"]) == set(grid["fill_pct"])
+    # each row sits at the fill its cells hold: 25 % and 50 % pour 5 and 11 of 21 spheres
+    full = full_cell_spheres(config)
+    assert set(table["fill_pct"]) == {poured_fill(r, full)[0] for r in grid["fill_pct"]}
+    assert set(table["fill_pct"]) == {23.81, 52.381}
     ok = table[table["status"] == "ok"]
     assert len(ok) >= 5, table[["case_id", "status", "flags"]]
     for column in ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "ceq_cell_ns_m", "ed_cycle_mean_j"):
@@ -96,7 +100,7 @@ def test_surrogate_and_its_cross_validation(campaign_dir):
     surrogate = load_surrogate(campaign_dir / "results" / "surrogate.json")
     assert surrogate.method == "rbf_thin_plate"
     assert surrogate.domain == {"freq_hz": (500.0, 1000.0), "accel_g": (5.0, 10.0),
-                                "fill_pct": (25.0, 50.0)}
+                                "fill_pct": (23.81, 52.381)}
     table = read_ceq_table(campaign_dir / "results" / "ceq_table.csv")
     ok = table[table["status"] == "ok"]
     predicted = surrogate.predict(ok["freq_hz"], ok["accel_g"], ok["fill_pct"])
@@ -142,7 +146,7 @@ def test_optimum_lies_in_the_environment_and_spends_the_budget(campaign_dir, con
     draws = config["optimisation"]["bootstrap"]["draws"]
     for _, row in optimum.iterrows():
         assert row["environment"] == env["name"]
-        assert 25.0 - 1e-6 <= row["fill_pct"] <= 50.0 + 1e-6
+        assert 23.81 - 1e-6 <= row["fill_pct"] <= 52.381 + 1e-6     # the cells' fills
         assert row["n_budget_spheres"] == n_b and row["full_cell_spheres"] == full
         n_cells = int(row["n_cells"])
         assert n_cells == row["n_cells"] and 1 <= n_cells <= config["geometry"]["coupon_n_cells"]
@@ -267,7 +271,7 @@ def test_deleted_record_reruns_only_its_case_and_a_failed_case_is_marked(campaig
     assert row["status"] == "failed" and np.isnan(row["ceq_coupon_ns_m"])
     assert "injected failure" in row["message"] and "screen.txt" in row["message"]
     assert (table["status"] == "ok").sum() >= 5
-    assert "grid point(s) empty" in run.stdout and "f=1000 Hz, G=10 g, r=50 %" in run.stdout
+    assert "grid point(s) empty" in run.stdout and "f=1000 Hz, G=10 g, r=52.381 %" in run.stdout
 
     # Retry: delete the failed record, run again with the real LIGGGHTS.
     record.unlink()
