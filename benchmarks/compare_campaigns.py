@@ -47,17 +47,19 @@ def main() -> None:
                         help="stages rerun on finished cases: leave out the first run's wall and "
                              "CPU of every process")
     args = parser.parse_args()
-    timed = ("engine_cpu_s",) if args.reused_pilots else ("engine_cpu_s", "cpu_all_processes_s",
-                                                          "wall_s")
+    # the first run's timings, left out when only the stages after the cases were rerun
+    first_run = {"cpu_all_processes_s", "wall_s"} if args.reused_pilots else set()
     figures, lines = {}, []
     summaries = {}
     for name, work in (("uniform", args.uniform), ("loop", args.loop)):
         summary = campaign_summary(work)
         summaries[name] = summary
         for key, value in summary["figures"].items():
-            if key in timed or key not in ("cpu_all_processes_s", "wall_s"):
+            if key not in first_run:
                 figures[f"{name}_{key}"] = value
-    for key in timed:
+    for key in ("engine_cpu_s", "cpu_all_processes_s", "wall_s"):
+        if key in first_run:
+            continue
         u, l = summaries["uniform"]["figures"][key], summaries["loop"]["figures"][key]
         figures[f"loop_over_uniform_{key.removesuffix('_s')}_ratio"] = round(l / u, 3)
     lines.append("| | uniform target | refinement loop | loop / uniform |")
@@ -65,7 +67,7 @@ def main() -> None:
     for key, label in (("wall_s", "wall, s"), ("engine_cpu_s", "engine CPU of the cases, s"),
                        ("cpu_all_processes_s", "CPU of every process, s"),
                        ("cases_run", "cases run")):
-        if key not in timed and key != "cases_run":
+        if key in first_run:
             continue
         u, l = summaries["uniform"]["figures"][key], summaries["loop"]["figures"][key]
         lines.append(f"| {label} | {u:g} | {l:g} | {l / u:.2f} |")

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from pidpipe.design.built_cells import cells_total, whole_sphere_cells
+from pidpipe.design.built_cells import at_each_fill, cells_total, whole_sphere_cells
 from pidpipe.design.optimisation import (
     Budget,
     CeqModel,
@@ -194,10 +194,9 @@ class _BandProblem:
     def band_totals_of(self, fills: np.ndarray, n_cells: np.ndarray) -> np.ndarray:
         """T at every band node (quadrature or grid) for each fill r (%) and its n_c, in one
         prediction; shape (m, n*n), N*s/m."""
-        f, g = self.nodes[0], self.nodes[1]
-        values = np.asarray(self.model.predict(np.tile(f, fills.size), np.tile(g, fills.size),
-                                               np.repeat(fills, f.size)), dtype=float)
-        return values.reshape(fills.size, f.size) / self.budget.n_cells_coupon * n_cells[:, None]
+        values = np.asarray(self.model.predict(*at_each_fill(self.nodes[0], self.nodes[1], fills)),
+                            dtype=float)
+        return values.reshape(fills.size, -1) / self.budget.n_cells_coupon * n_cells[:, None]
 
     def band_totals(self, fill_pct: float, n_cells: float) -> np.ndarray:
         """T at every band node of n_c cells at fill r, N*s/m, shape (n*n,)."""

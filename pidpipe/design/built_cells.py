@@ -19,8 +19,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from pidpipe.config.derived import FILL_DECIMALS
+from pidpipe.config.derived import cell_fill_pct
 from pidpipe.config.settings import Budget
+
+
+def whole_sphere_counts(budget: Budget, n_cells: int) -> tuple[int, int]:
+    """(w, L): the budget's n_b spheres over n_c cells put w = floor(n_b / n_c) in every cell and
+    one more in L = n_b - w n_c of them."""
+    n_cells, n_spheres = int(n_cells), int(round(budget.n_spheres))
+    if n_cells < 1:
+        raise ValueError(f"a design fills at least one cell, got {n_cells}")
+    whole = n_spheres // n_cells
+    return whole, n_spheres - whole * n_cells
 
 
 def whole_sphere_cells(budget: Budget, n_cells: int,
@@ -40,17 +50,14 @@ def whole_sphere_cells(budget: Budget, n_cells: int,
     Returns
     -------
     list of (float, int)
-        (r_w, n_c - L), then (r_(w+1), L) when L > 0; fills rounded to 1e-3 %.
+        (r_w, n_c - L), then (r_(w+1), L) when L > 0 (:func:`whole_sphere_counts`); each fill
+        :func:`pidpipe.config.derived.cell_fill_pct` of its count.
     """
-    n_cells, n_spheres = int(n_cells), int(round(budget.n_spheres))
-    if n_cells < 1:
-        raise ValueError(f"a design fills at least one cell, got {n_cells}")
-    whole = n_spheres // n_cells
-    left = n_spheres - whole * n_cells
-    counts = [(whole, n_cells - left)] + ([(whole + 1, left)] if left else [])
+    whole, left = whole_sphere_counts(budget, n_cells)
+    counts = [(whole, int(n_cells) - left)] + ([(whole + 1, left)] if left else [])
     cells = []
     for spheres, cells_of_count in counts:
-        fill = round(100.0 * spheres / float(budget.full_cell_spheres), FILL_DECIMALS)
+        fill = cell_fill_pct(spheres, budget.full_cell_spheres)
         if fill_bounds is not None:
             fill = float(np.clip(fill, *fill_bounds))
         cells.append((fill, cells_of_count))
@@ -62,6 +69,15 @@ def cells_weights(cells: list[tuple[float, int]], n_cells_coupon: int) -> tuple[
     fills = np.array([fill for fill, _ in cells], dtype=float)
     weights = np.array([count for _, count in cells], dtype=float) / float(n_cells_coupon)
     return fills, weights
+
+
+def at_each_fill(freq_hz, accel_g, fills) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points (f, G, r) of every (f, G) at every fill, fill by fill: 3 arrays of m * k, the
+    first m at fills[0] (reshape a prediction at them to (k, m))."""
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    g = np.atleast_1d(np.asarray(accel_g, dtype=float))
+    fills = np.atleast_1d(np.asarray(fills, dtype=float))
+    return np.tile(f, fills.size), np.tile(g, fills.size), np.repeat(fills, f.size)
 
 
 def cells_total(model, freq_hz, accel_g, cells: list[tuple[float, int]],
@@ -79,9 +95,6 @@ def cells_total(model, freq_hz, accel_g, cells: list[tuple[float, int]],
     n_cells_coupon : int
         N, the coupon's cells (the surrogate's C_eq is of N filled cells).
     """
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    g = np.atleast_1d(np.asarray(accel_g, dtype=float))
     fills, weights = cells_weights(cells, n_cells_coupon)
-    values = np.asarray(model.predict(np.tile(f, fills.size), np.tile(g, fills.size),
-                                      np.repeat(fills, f.size)), dtype=float).reshape(fills.size, f.size)
-    return weights @ values
+    values = np.asarray(model.predict(*at_each_fill(freq_hz, accel_g, fills)), dtype=float)
+    return weights @ values.reshape(fills.size, -1)

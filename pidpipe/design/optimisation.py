@@ -48,7 +48,7 @@ from scipy.stats import qmc
 
 # The budget and the environment are the config's own types (one definition each).
 from pidpipe.config.settings import Budget, Environment  # noqa: F401
-from pidpipe.design.built_cells import cells_total, whole_sphere_cells
+from pidpipe.design.built_cells import cells_total, whole_sphere_cells, whole_sphere_counts
 from pidpipe.errors import ConfigError, DomainError, PidpipeError
 
 #: Order of the optimisation variables.
@@ -495,10 +495,10 @@ def whole_cell_candidates(budget: Budget, n_cells: float,
 def make_design(budget: Budget, n_cells: int, per_cell: float, fill: float, total_ns_m: float,
                 freq_hz: float | None, accel_g: float | None) -> Design:
     """A :class:`Design` of ``n_cells`` cells at ``fill`` whose total C_eq is ``total_ns_m``."""
-    whole = math.floor(per_cell + 1e-9)
+    whole, left = whole_sphere_counts(budget, n_cells)
     return Design(
         n_cells=n_cells, spheres_per_cell=per_cell, whole_spheres_per_cell=whole,
-        spheres_left_over=int(budget.n_spheres - whole * n_cells), fill_pct=fill,
+        spheres_left_over=left, fill_pct=fill,
         freq_hz=freq_hz, accel_g=accel_g, ceq_per_cell_ns_m=total_ns_m / n_cells,
         total_ceq_ns_m=total_ns_m,
         budget_residual_spheres=float(budget.spheres_per_cell(fill)) * n_cells - budget.n_spheres)

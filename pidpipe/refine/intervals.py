@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pidpipe.design.band import BandRule
-from pidpipe.design.built_cells import cells_weights, whole_sphere_cells
+from pidpipe.design.built_cells import at_each_fill, cells_weights, whole_sphere_cells
 from pidpipe.design.optimisation import OptimisationResult
 
 #: Normal quantile of a two-sided 95 % interval.
@@ -117,11 +117,10 @@ def design_interval(model, result: OptimisationResult, rule: BandRule) -> Design
         f, g, w = rule.quadrature(result.bounds)
     else:
         f, g = rule.grid(result.bounds)
-        m, _ = _predict(model, np.tile(f, fills.size), np.tile(g, fills.size), np.repeat(fills, f.size))
+        m, _ = _predict(model, *at_each_fill(f, g, fills))
         k = int(np.argmin(shares @ m.reshape(fills.size, f.size)))
         f, g, w = f[k:k + 1], g[k:k + 1], np.ones(1)
-    value, std, joint = _linear(model, np.tile(f, fills.size), np.tile(g, fills.size),
-                                np.repeat(fills, f.size), np.outer(shares, w).ravel())
+    value, std, joint = _linear(model, *at_each_fill(f, g, fills), np.outer(shares, w).ravel())
     single = {"peak": "point", "worst_case": "minimum point"}.get(result.kind)
     method = single if single and fills.size == 1 else ("joint" if joint else "correlated bound")
     return DesignInterval(environment=result.environment.name, kind=result.kind,
