@@ -1,13 +1,19 @@
 """Choose a round's cases: what most reduces the open designs' uncertainty per CPU second.
 
 First, every verifying point that failed (|z| > ``flag_z``) is run again as a verifying case
-(``reverify``, pooled with its earlier runs) and gets a fitted case at the same point (a new
-case, or an extension when the table has one), reason saying which design and |z|. A point
-the surrogate refused (outside its domain, :mod:`pidpipe.refine.predict`) gets the fitted case
-only, which widens the domain to it.
+(``reverify``, pooled with its earlier runs), reason saying which design and |z|. It also gets
+a fitted case at the same point (a new case, or an extension when the table has one) while the
+surrogate's standard deviation there is at least :data:`FITTED_SHARE` of the verifying runs'
+pooled SEM: z's denominator is sqrt(SEM_dem^2 + sigma_s^2), and once sigma_s is the smaller
+part a fitted case can no longer move z, while another verifying run still can (an extension
+there costs ``EXTEND_FACTOR`` times the one before it, a verifying run the same each time). A
+point the surrogate refused (outside its domain, :mod:`pidpipe.refine.predict`) gets the
+fitted case only, which widens the domain to it.
 
 Then, greedily, up to ``cases_per_round`` fitted cases in all, among the new-case and extension
-candidates of the open designs (:mod:`pidpipe.refine.candidates`). A candidate's gain is the
+candidates of the open designs (:mod:`pidpipe.refine.candidates`): the designs whose interval
+does not yet meet the criterion (a design open only because a point fails gets that point's
+requests above, not more of its interval's). A candidate's gain is the
 reduction of the surrogate's predictive variance of C_eq at its point that one more
 observation there brings, for a Gaussian process with the table's SEMs as its noise (exact
 for the point itself, the Bayesian update of one value by one more measurement of it):
@@ -54,6 +60,11 @@ from pidpipe.refine.table import case_key
 #: Relative SEM a new case is expected to have when the table has none to go by.
 FALLBACK_RELATIVE_SEM = 0.1
 
+#: A failing verifying point gets a fitted case while the surrogate's standard deviation there
+#: is at least this fraction of the verifying runs' pooled SEM (its variance at least a fifth
+#: of z's denominator squared).
+FITTED_SHARE = 0.5
+
 #: Significant digits of a score compared between candidates (so that rounding noise cannot
 #: reorder equal scores).
 SCORE_DIGITS = 12
@@ -85,6 +96,17 @@ def variance_reduction(std: np.ndarray, added_precision: np.ndarray) -> np.ndarr
     return np.where(var > 0, var - after, 0.0)
 
 
+def fitted_case_helps(point: pd.Series) -> bool:
+    """Whether a failing point gets a fitted case (see the module's text): the surrogate's
+    standard deviation ``surrogate_std_ns_m`` there is at least :data:`FITTED_SHARE` of the
+    verifying runs' pooled SEM ``dem_sem_ns_m``, or either is unknown (a refused point)."""
+    std = float(point.get("surrogate_std_ns_m", math.nan))
+    sem = float(point.get("dem_sem_ns_m", math.nan))
+    if not (math.isfinite(std) and math.isfinite(sem)):
+        return True
+    return std >= FITTED_SHARE * sem
+
+
 def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
            intervals: list[DesignInterval], open_designs: set[str], failing: pd.DataFrame,
            cost: Callable[[Request], float], cases_per_round: int, interval_fraction: float, full_cell_spheres: int) -> Choice:
@@ -102,7 +124,7 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
         The round's designs, in the order of ``intervals``.
     intervals : list of DesignInterval
     open_designs : set of str
-        ``environment/kind`` of the designs not yet done.
+        ``environment/kind`` of the designs whose interval does not yet meet the criterion.
     failing : pandas.DataFrame
         Verifying points with a DEM value that do not pass: |z| > flag_z, or no surrogate value
         there (:func:`pidpipe.refine.verification.compare` rows).
@@ -121,10 +143,15 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
         reason = (f"verify |z| = {np.nanmax(z):.2f} at {where}" if np.isfinite(z).any()
                   else f"verify point outside the surrogate's domain at {where}")
         point = (float(first["freq_hz"]), float(first["accel_g"]), float(first["fill_pct"]))
+        helps = fitted_case_helps(first)
         if np.isfinite(z).any():                        # an outside point needs no rerun
-            reverify.append(Request(*point, action="reverify", reason=reason,
+            why = reason if helps else (
+                f"{reason}; surrogate std {float(first['surrogate_std_ns_m']):.3g} below "
+                f"{FITTED_SHARE:g} x the verifying SEM {float(first['dem_sem_ns_m']):.3g} "
+                "N*s/m: verified again, no fitted case")
+            reverify.append(Request(*point, action="reverify", reason=why,
                                     designs=tuple(part["design"]), run=int(first["runs"])))
-        if len(cases) < cases_per_round:
+        if len(cases) < cases_per_round and helps:
             if key in fitted_keys:
                 row = fitted[fitted["case_key"] == key].iloc[-1]
                 cases.append(Request(*point, action="extend", reason=reason, factor=EXTEND_FACTOR,

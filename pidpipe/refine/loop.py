@@ -10,7 +10,8 @@ Round N (:func:`refine`):
    (:mod:`pidpipe.refine.verification`);
 5. stop when every design's interval meets the criterion and every one of its points passes
    (``criterion met``), or at ``refine.max_rounds`` (``max rounds reached``);
-6. choose the round's cases (:mod:`pidpipe.refine.choice`), keep those that fit in what is left
+6. choose the round's cases (:mod:`pidpipe.refine.choice`: reruns of the failing verifying
+   points, and cases for the designs whose interval is still wide), keep those that fit in what is left
    of ``refine.max_cpu_s`` (planned CPU, in the order chosen), and run them; when none fits,
    stop (``cpu budget spent``), and when there is nothing to choose (``nothing left to run``).
 
@@ -167,10 +168,10 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
         if round_index >= settings.max_rounds:
             return _finish(MAX_ROUNDS, _account(record, table, round_index), rounds, table,
                            results, intervals, model, on_round)
-        open_designs = _open_designs(intervals, met, comparison)
+        wide = {name for name, within in met.items() if not within}
         failing = comparison[~comparison["passes"].astype(bool)
                              & np.isfinite(comparison["dem_ns_m"].to_numpy(dtype=float))]
-        choice = choose(fitted, fit, model, results, intervals, open_designs, failing, cost,
+        choice = choose(fitted, fit, model, results, intervals, wide, failing, cost,
                         settings.cases_per_round, settings.interval_fraction, spheres)
         wanted = list(choice.cases) + list(choice.reverify)
         left = settings.max_cpu_s - before - verify_cost
@@ -273,17 +274,6 @@ def _account(record: RoundRecord, table: pd.DataFrame, round_index: int) -> Roun
     record.engine_cpu_s = spent_cpu_s(mine)
     record.cumulative_cpu_s = spent_cpu_s(table[table["refine_round"] <= round_index])
     return record
-
-
-def _open_designs(intervals: list[DesignInterval], met: dict, comparison: pd.DataFrame) -> set[str]:
-    """Designs whose interval is wide, or with a point that is not verified or fails."""
-    names = set()
-    for interval in intervals:
-        name = f"{interval.environment}/{interval.kind}"
-        mine = comparison[comparison["design"] == name]
-        if not met[name] or mine.empty or not mine["passes"].astype(bool).all():
-            names.add(name)
-    return names
 
 
 def _open_lines(intervals: list[DesignInterval], met: dict, comparison: pd.DataFrame,

@@ -95,6 +95,21 @@ def test_a_failing_verify_point_is_run_again_and_gets_a_fitted_case_first(round_
     assert [(q.key, q.action, q.run) for q in chosen.reverify] == [(failing["case_key"][0], "reverify", 1)]
 
 
+@pytest.mark.parametrize("dem_sem, fitted_case", [(8.0, True), (20.0, False)])
+def test_a_failing_point_gets_a_fitted_case_only_while_it_can_move_z(round_inputs, dem_sem,
+                                                                      fitted_case):
+    """The surrogate's std is 5 everywhere: against a verifying SEM of 8 a fitted case there
+    still shrinks z's denominator; against 20 it cannot, and the point is only verified again."""
+    key = Request(275.0, 5.0, 45.0).key
+    failing = pd.DataFrame([{"case_key": key, "design": "low/peak", "point": "centre", "z": 3.1,
+                             "freq_hz": 275.0, "accel_g": 5.0, "fill_pct": 45.0, "runs": 2,
+                             "dem_sem_ns_m": dem_sem, "surrogate_std_ns_m": 5.0}])
+    chosen = _choose(round_inputs, failing=failing)
+    assert [(q.key, q.action, q.run) for q in chosen.reverify] == [(key, "reverify", 2)]
+    assert (key in {c.key for c in chosen.cases}) == fitted_case
+    assert ("no fitted case" in chosen.reverify[0].reason) != fitted_case
+
+
 def _with_shared_loads(fitted: pd.DataFrame, shared_fraction: float) -> pd.DataFrame:
     """Every row loaded on the same 7 packings of its fill, the same pattern in every row (the
     cells' deviations fully correlated), with v = shared_fraction * SEM^2."""

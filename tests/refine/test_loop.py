@@ -73,6 +73,18 @@ def test_the_rows_say_where_they_came_from_and_why(whole):
     assert outcome.rounds[-1].cumulative_cpu_s == pytest.approx(added["planned_cpu_s"].sum())
 
 
+def test_a_round_whose_intervals_all_meet_the_criterion_runs_only_what_its_failing_points_ask(
+        whole):
+    _, outcome = whole
+    table = outcome.table
+    narrow = [r.round for r in outcome.rounds
+              if all(i.half_width_fraction <= SETTINGS.interval_fraction for i in r.intervals)]
+    assert narrow
+    for index in narrow:
+        fitted = table[(table["refine_round"] == index) & table["action"].isin(["new", "extend"])]
+        assert all(reason.startswith("verify |z|") for reason in fitted["reason"]), fitted
+
+
 def test_an_unreachable_criterion_stops_at_the_cpu_budget_and_says_so():
     engine = FakeEngine()
     settings = RefineSettings(interval_fraction=0.01, max_cpu_s=150.0, cases_per_round=3,
@@ -112,7 +124,7 @@ def _stop_after_round(k):
 
 @pytest.mark.parametrize("kill", [
     {"on_round": _stop_after_round(2)},               # between rounds
-    {"engine": {"fail_after": 23}},                   # in round 3, after its verifying runs
+    {"engine": {"fail_after": 21}},                   # in round 3, after its verifying runs
 ], ids=["between_rounds", "within_a_round"])
 def test_a_killed_loop_resumes_with_only_the_missing_cases_and_ends_the_same(tmp_path, whole, kill):
     _, outcome = whole
