@@ -44,7 +44,9 @@ there (made with the same plan) is read, not run again, so that a loop killed in
 - in this process (``pidpipe refine``, or a workflow step with ``refine.run_cases: in_step``):
   the requests of one call run up to ``cores`` at a time in worker processes that live as long
   as the engine (:meth:`close`), so Python starts and the engine loads once per loop, not per
-  case;
+  case; the packings they lack are poured first, shared among the workers
+  (:meth:`CaseEngine._pour_ahead`), so that one extension's many fresh packings do not pour on
+  one core;
 - as workflow jobs (``snakemake refine``, ``run_missing=False``): the engine runs nothing; when a
   call lacks records it writes each missing plan to ``work_dir/plans/<case id>.json``
   (:meth:`Plan.write`) and raises :class:`RunsNeeded` naming them, and the workflow runs each
@@ -301,6 +303,8 @@ class CaseEngine:
         ``run_missing`` False: the stored ones, else :class:`RunsNeeded`)."""
         if not self.run_missing:
             return [record for record, _ in self._stored_or_planned(plans)]
+        if self.cores > 1:
+            self._pour_ahead(plans)
         if self.cores > 1 and len(plans) > 1:
             done = list(self._workers().map(self._record, plans))
         else:
@@ -313,6 +317,45 @@ class CaseEngine:
                 logger.info("refine: shook %s: %.1f engine CPU-s, pours %.1f s", record.case_id,
                             spent["shake_cpu_s"], spent["pour_wall_s"])
         return [record for record, _ in done]
+
+    def _pour_ahead(self, plans: list[Plan]) -> None:
+        """Pour the packings the plans without a record lack, shared among the workers, before
+        any of them runs: a case pours its missing packings one after another, so an extension
+        of many cells on fresh packings would otherwise pour them all on one core while the
+        other waits. Each fill's missing packings are split into ``cores`` batches (the DEM
+        pours a batch in one call); the runs then read them from the pool."""
+        from pidpipe.steps.cases import pool_packing_path
+
+        folder = self.work_dir / "packings"
+        missing: dict[float, list[int]] = {}
+        for plan in plans:
+            if self._stored(plan) is not None:
+                continue
+            fill = plan.case.fill_pct
+            for index in plan.packings:
+                if (not pool_packing_path(folder, fill, index).is_file()
+                        and index not in missing.setdefault(fill, [])):
+                    missing[fill].append(index)
+        batches = [(fill, indices[k::self.cores]) for fill, indices in sorted(missing.items())
+                   for k in range(self.cores) if indices[k::self.cores]]
+        if len(batches) < 2:
+            return
+        for spent in self._workers().map(self._pour_batch, batches):
+            for key, value in spent.items():
+                self.measured[key] += value
+        logger.info("refine: poured %d packing(s) ahead in %d batch(es)",
+                    sum(len(indices) for _, indices in batches), len(batches))
+
+    def _pour_batch(self, batch: tuple[float, list[int]]) -> dict:
+        """Pour one fill's packings into the pool (a worker's task); what it spent, s."""
+        from pidpipe.steps.cases import pool_packings
+
+        fill, indices = batch
+        before, wall = os.times(), time.perf_counter()
+        pool_packings(self.pour, fill, list(indices), self.work_dir / "packings")
+        after = os.times()
+        return {"pour_wall_s": time.perf_counter() - wall,
+                "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
 
     def _stored_or_planned(self, plans: list[Plan]) -> list:
         """The plans' stored records (as ``(record, None)``); when some are missing, write their

@@ -158,6 +158,29 @@ def test_requests_run_on_two_cores_give_the_rows_they_give_one_after_another(pro
         assert list(two[column]) == list(one[column])
 
 
+def test_one_extension_on_two_cores_pours_its_packings_in_two_batches_first(problem, tmp_path,
+                                                                           caplog):
+    """A single request of several fresh packings: the two workers pour them ahead, half each,
+    and the row is the one the same request gives run here alone."""
+    config_path, grid_path, _ = problem
+    config = load_config(config_path)
+    base = pd.read_csv(grid_path).iloc[0].to_dict()
+    request = Request(base["freq_hz"], base["accel_g"], base["fill_pct"], "extend", factor=5.0,
+                      base=base)
+    serial = CaseEngine.from_config(config, tmp_path / "serial")
+    caplog.set_level("INFO", logger="pidpipe.refine")
+    with CaseEngine.from_config(config, tmp_path / "parallel", cores=2) as parallel:
+        plan = parallel.plan(request)
+        assert plan.cells == 4
+        two = parallel.measure([], [request])
+        poured = sorted((tmp_path / "parallel" / "packings").glob("*.json"))
+    one = serial.measure([], [request])
+    assert len(poured) == 4 and parallel.measured["pour_cpu_s"] > 0
+    assert "poured 4 packing(s) ahead in 2 batch(es)" in caplog.text
+    for column in ("ceq_coupon_ns_m", "ceq_coupon_sem_ns_m", "status", "cells"):
+        assert list(two[column]) == list(one[column])
+
+
 def test_an_extension_of_a_case_its_allocation_took_past_the_pilot_keeps_its_cycles(problem):
     _, _, engine = problem
     # the DEM campaign's f1000Hz_G1_r90pct: the allocation took it to 20 cells x 400 cycles
