@@ -20,6 +20,14 @@ against 2.11 read at its 7 spheres, ``benchmarks/experiments/shared_packings_ver
 that two designs share (the same sphere count, f and G, e.g. a peak and a band_mean design at
 one fill) are one case, run once (:func:`unique_case_ids`).
 
+A verifying case is replicate :data:`VERIFY_REPLICATE` of its point, so it shakes packings no
+case of the campaign shakes (:meth:`pidpipe.cases.CaseSpec.packing_ids`; the campaign's
+replicates are 0-99, the cells its target adds are the pool's packings of that replicate). On
+the campaign's packings (replicate 0) a verifying case would share their offset with the fitted
+cases of its fill, which every case of a fill shakes: the offset cancels in C_dem - C_s, so
+z comes out narrower than its uncertainties say and blind to the packings' own error
+(``docs/explanation/validation.md``, ``benchmarks/experiments/verify_packings.py``).
+
 The surrogate's standard uncertainty (:func:`surrogate_uncertainty`)
 --------------------------------------------------------------------
 For a Gaussian-process surrogate (``gp``, :attr:`~pidpipe.design.surrogate.Surrogate.has_uncertainty`)
@@ -80,6 +88,10 @@ from pidpipe.cases import CaseSpec
 from pidpipe.config.derived import poured_fill
 from pidpipe.errors import PidpipeError
 from pidpipe.measurement.case_record import CaseRecord
+
+#: The replicate of every verifying case: its packings are none of the campaign's (its replicates
+#: are below 100) nor the refinement loop's (extensions from 101, verifying runs from 200).
+VERIFY_REPLICATE = 100
 
 #: The designs checked, in the table's order.
 VERIFIED_KINDS: tuple[str, ...] = ("band_mean", "peak")
@@ -163,7 +175,7 @@ def plan_points(designs: list[dict], full_cell_spheres: int,
                                "optimisation's results") from None
         fill_pct, n_spheres = poured_fill(design_fill, full_cell_spheres)
         for point, freq_hz, accel_g in band_points(freq_band, accel_band):
-            rows.append({"case_id": CaseSpec(freq_hz, accel_g, fill_pct).case_id,
+            rows.append({"case_id": CaseSpec(freq_hz, accel_g, fill_pct, VERIFY_REPLICATE).case_id,
                          "environment": name, "design": result["kind"], "point": point,
                          "freq_hz": freq_hz, "accel_g": accel_g, "design_fill_pct": design_fill,
                          "fill_pct": fill_pct, "n_spheres": n_spheres, "n_cells": n_cells})

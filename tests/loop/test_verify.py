@@ -14,6 +14,7 @@ from pidpipe.errors import PidpipeError
 from pidpipe.loop.verify import (
     POINT_NAMES,
     VERIFY_COLUMNS,
+    VERIFY_REPLICATE,
     band_points,
     compare,
     is_off,
@@ -64,6 +65,28 @@ def test_band_mean_and_peak_of_every_environment_give_five_points_each_and_worst
     b = points[points["environment"] == "B"]
     assert set(b["fill_pct"]) == {28.571} and set(b["n_spheres"]) == {6}
     assert set(b["freq_hz"]) == {250.0, 275.0, 300.0}
+
+
+def test_a_verifying_case_shakes_packings_no_campaign_case_or_loop_run_shakes():
+    """On the campaign's packings a verifying case would share their offset with the fitted cases
+    of its fill (every case of a fill shakes them), and z could not see it."""
+    from pidpipe.steps.cases import extra_packing_index
+    from pidpipe.steps.refine_engine import EXTEND_REPLICATES_FROM, VERIFY_REPLICATES_FROM
+
+    points = plan_points([design("A", "peak", 49.567)], 21)
+    cells = 24                                          # the schema's largest cells_per_run
+    for case_id in unique_case_ids(points):
+        case = CaseSpec.from_id(case_id)
+        assert case.replicate == VERIFY_REPLICATE
+        mine = {int(p.rsplit("_rep", 1)[1]) for p in case.packing_ids(cells)}
+        campaign = {int(p.rsplit("_rep", 1)[1]) for q in range(100)      # replicates 0-99
+                    for p in CaseSpec(case.freq_hz, case.accel_g, case.fill_pct, q).packing_ids(cells)}
+        assert not mine & campaign
+        # the cells a target adds come from the pool's packings of its own replicate, apart from
+        # the loop's extensions and verifying runs
+        assert VERIFY_REPLICATE < EXTEND_REPLICATES_FROM + 1 <= VERIFY_REPLICATES_FROM
+        assert extra_packing_index(VERIFY_REPLICATE, 999) < extra_packing_index(
+            EXTEND_REPLICATES_FROM + 1, 0)
 
 
 def test_a_point_two_designs_share_is_one_case():

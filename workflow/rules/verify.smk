@@ -5,9 +5,10 @@
 #                                surrogates (C_eq, and m_eff with the campaign's table):
 #                                results/verify.csv and results/verify.png
 # The cases follow from the designs, so plan_verify is a checkpoint; a point two designs share
-# is one case. Their packings are poured and checked apart from the campaign's
-# (results/verify/packings/), with the same seeds and settings. No ancient()/update() here:
-# with them Snakemake 9.27 dropped the verify job in a run whose checkpoint changed the plan.
+# is one case. Each is replicate 100 of its point (pidpipe.loop.verify.VERIFY_REPLICATE): its
+# packings, poured and checked in results/verify/packings/, are none the campaign shakes.
+# No ancient()/update() here: with them Snakemake 9.27 dropped the verify job in a run whose
+# checkpoint changed the plan.
 
 
 checkpoint plan_verify:
