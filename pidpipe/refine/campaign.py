@@ -4,8 +4,8 @@
 when there is one (a campaign killed between or within rounds resumes there), else from the
 grid's C_eq table; it saves the table after every change and ``rounds.csv`` after every round
 (:mod:`pidpipe.refine.outputs`), and at the end writes ``summary.json`` (what stopped the loop,
-what is open, each design's interval) and the convergence figure
-(:func:`pidpipe.figures.refine.plot_refine`).
+what is open, each design's interval), ``verify_points.csv`` (the last round's verifying points)
+and the convergence figure (:func:`pidpipe.figures.refine.plot_refine`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from pidpipe.design.designs import Search
 from pidpipe.design.optimisation import Budget, Environment
 from pidpipe.figures.refine import plot_refine
 from pidpipe.refine.loop import Outcome, refine
-from pidpipe.refine.outputs import read_table, write_rounds, write_summary, write_table
+from pidpipe.refine.outputs import (read_table, write_rounds, write_summary, write_table,
+                                     write_verify_points)
 from pidpipe.refine.table import with_grid
 
 
@@ -40,7 +41,7 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
         loop's own rows are kept (:func:`pidpipe.refine.table.with_grid`).
     out_dir : path
         ``results/refine/state``: ``ceq_table.csv`` (the loop's table), ``rounds.csv``,
-        ``summary.json``, ``convergence.png`` and ``.pdf``.
+        ``summary.json``, ``verify_points.csv``, ``convergence.png`` and ``.pdf``.
     fit, measure, verify, cost, environments, budget, search, settings, flag_z
         As :func:`pidpipe.refine.loop.refine`.
     on_round : callable, optional
@@ -55,6 +56,7 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
                      on_round=lambda record: _round_done(record, rounds_path, on_round))
     write_table(outcome.table, table_path)
     write_summary(outcome, out / "summary.json", pd.read_csv(rounds_path))
+    write_verify_points(outcome.rounds[-1].comparison, out / "verify_points.csv")
     plot_refine(pd.read_csv(rounds_path), out / "convergence", settings.interval_fraction, flag_z)
     return outcome
 

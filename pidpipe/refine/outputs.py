@@ -70,6 +70,23 @@ def write_table(table: pd.DataFrame, path: str | Path) -> Path:
     return write_atomic(path, lambda tmp: table.to_csv(tmp, index=False))
 
 
+#: Columns of verify_points.csv, in order.
+VERIFY_POINT_COLUMNS: tuple[str, ...] = (
+    "design", "point", "freq_hz", "accel_g", "design_fill_pct", "fill_pct", "case_key", "runs",
+    "dem_ns_m", "dem_sem_ns_m", "dem_dof", "surrogate_ns_m", "surrogate_std_ns_m", "t", "z",
+    "passes",
+)
+
+
+def write_verify_points(comparison: pd.DataFrame, path: str | Path) -> Path:
+    """Write the last round's verifying points as CSV: :data:`VERIFY_POINT_COLUMNS`, one row
+    per design and point (:func:`pidpipe.refine.verification.compare`: the DEM's pooled runs
+    with their SEM and its degrees of freedom, the surrogate's mean and std, N*s/m; t, and z
+    its normal score; no rows when the last round verified nothing)."""
+    frame = comparison.reindex(columns=list(VERIFY_POINT_COLUMNS))
+    return write_atomic(path, lambda tmp: frame.to_csv(tmp, index=False))
+
+
 #: Read a table the loop wrote (:func:`pidpipe.refine.table.from_csv`).
 read_table = from_csv
 

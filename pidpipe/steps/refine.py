@@ -4,12 +4,12 @@ Both write the same files under the refinement's folder (``results/refine``):
 
 ``state/``
     the loop's own files (:func:`pidpipe.refine.campaign.refine_files`): its append-only table
-    ``ceq_table.csv``, ``rounds.csv``, and, once it stops, ``summary.json`` and the convergence
-    figure;
+    ``ceq_table.csv``, ``rounds.csv``, and, once it stops, ``summary.json``,
+    ``verify_points.csv`` and the convergence figure;
 ``work/``
     the engine's packings, case folders, records and waiting plans
     (:class:`pidpipe.steps.refine_engine.CaseEngine`);
-``rounds.csv``, ``summary.json``, ``convergence.png`` / ``.pdf``
+``rounds.csv``, ``summary.json``, ``verify_points.csv``, ``convergence.png`` / ``.pdf``
     the finished loop's outputs (:func:`finish_refine`), and the design table beside the
     campaign's (``results/ceq_table_refined.csv``): what the loop's last round fitted.
 
@@ -164,8 +164,8 @@ def run_refine_plan(config: dict, refine_dir: str | Path, case_id: str) -> Path:
 
 
 def finish_refine(refine_dir: str | Path, design_table: str | Path) -> None:
-    """The finished loop's outputs: its state's ``rounds.csv``, ``summary.json`` and figure
-    copied into ``refine_dir``, and the table its last round fitted as ``design_table`` (the
+    """The finished loop's outputs: its state's ``rounds.csv``, ``summary.json``,
+    ``verify_points.csv`` and figure copied into ``refine_dir``, and the table its last round fitted as ``design_table`` (the
     latest row of every case, verifying runs left out; columns of ``results/ceq_table.csv``
     and the loop's, ``source`` saying where each row came from)."""
     from pidpipe.refine.outputs import read_table, write_table
@@ -173,7 +173,8 @@ def finish_refine(refine_dir: str | Path, design_table: str | Path) -> None:
 
     refine_dir = Path(refine_dir)
     state = refine_dir / "state"
-    needed = ["ceq_table.csv", "rounds.csv", "summary.json", "convergence.png", "convergence.pdf"]
+    needed = ["ceq_table.csv", "rounds.csv", "summary.json", "verify_points.csv", "convergence.png",
+              "convergence.pdf"]
     missing = [name for name in needed if not (state / name).is_file()]
     if missing:
         raise PidpipeError(f"the refinement in {state} has not finished: no {', '.join(missing)}; "

@@ -34,6 +34,10 @@ def test_the_files_say_what_stopped_the_loop_and_a_rerun_runs_nothing(tmp_path):
     assert sorted(set(rounds["round"])) == list(range(1, max(rounds["round"]) + 1))
     assert rounds["cumulative_cpu_s"].iloc[-1] == summary["planned_cpu_s"] > 0
     assert (out / "convergence.png").is_file() and (out / "convergence.pdf").is_file()
+    points = pd.read_csv(out / "verify_points.csv")
+    assert len(points) == len(outcome.rounds[-1].comparison) > 0
+    assert points["passes"].all() and (points["z"].abs() <= 2.0).all()
+    assert {"dem_dof", "t", "z", "surrogate_std_ns_m"} <= set(points.columns)
     table = pd.read_csv(out / "ceq_table.csv")
     assert len(table) == len(outcome.table)
 

@@ -91,7 +91,7 @@ def _kill_after(workdir, step: int) -> None:
         if int(path.stem) > step:
             path.unlink()
     for name in ("ceq_table_refined.csv", "refine/rounds.csv", "refine/summary.json",
-                 "refine/convergence.png", "refine/convergence.pdf"):
+                 "refine/verify_points.csv", "refine/convergence.png", "refine/convergence.pdf"):
         (results / name).unlink()
 
 
@@ -145,6 +145,8 @@ def test_the_designs_rest_on_the_table_the_loop_fitted_last(campaign):
     rounds = pd.read_csv(results / "refine" / "rounds.csv")
     assert sorted(set(rounds["round"])) == [1, 2, 3] and len(rounds) == 3 * 3
     assert (results / "refine" / "convergence.png").stat().st_size > 10_000
+    points = pd.read_csv(results / "refine" / "verify_points.csv")
+    assert {"design", "point", "dem_dof", "z", "passes"} <= set(points.columns)
     log = (campaign / "logs" / "fit_surrogate.log").read_text()
     assert "ceq_table_refined.csv" in log
     optimum = pd.read_csv(results / "optimum.csv")

@@ -53,6 +53,7 @@ rule finish_refine:
         rounds=report("results/refine/rounds.csv", caption="../report/refine.rst",
                       category="11. Refinement"),
         summary="results/refine/summary.json",
+        verify_points="results/refine/verify_points.csv",
         png=report("results/refine/convergence.png", caption="../report/refine.rst",
                    category="11. Refinement"),
         pdf="results/refine/convergence.pdf",
