@@ -16,16 +16,21 @@ from the antinode outwards at mid fill (and at any further fills given, such as 
 design's) until the budget is spent, and ``starts`` seeded
 Latin-hypercube points scaled onto the budget. Every feasible end point (and every start) is
 rounded to whole cells and judged on all its cells (:func:`pidpipe.panel.loss.band_summary`:
-the peak as the band grid's best point); the best is the answer. Rounding to whole cells:
-level k fills round(x_k N_k) of its cells at r_k; cells are taken off
-the outermost filled level while the budget is exceeded. Within a level the cells are taken
+the peak as the band grid's best point); the best is the answer. Rounding to whole cells and
+spheres: level k fills c_k = round(x_k N_k) of its cells and spends n_k = floor(c_k s(r_k))
+spheres on them as a design is built (:mod:`pidpipe.design.built_cells`): w_k = floor(n_k / c_k)
+in each and one more in the first n_k - w_k c_k, each cell at its count's fill (counts held to
+the C_eq model's fill domain, :meth:`pidpipe.panel.loss.ModalLoss.sphere_counts`);
+cells are taken off the outermost filled level while the budget is exceeded. Within a level the cells are taken
 best first by their own contribution C_eq(f, G |phi_i|, r_k) phi_i^2 over the design's
 accelerations (the level's largest |phi| first when C_eq grows with G, its middle when C_eq
 peaks inside the level).
 
-The source-style layouts fill n_c cells at one fill r (the coupon design's r and n_c):
-``source_uniform`` spreads them evenly over the plate, ``source_antinode`` takes the n_c cells
-of largest |phi|.
+The source-style layouts fill the coupon design's n_c cells as it is built, w spheres in each
+and one more in L of them (:func:`pidpipe.design.built_cells.whole_sphere_cells`, given as one
+fill per cell, the fuller first): ``source_uniform`` spreads them evenly over the plate,
+``source_antinode`` takes the n_c cells of largest |phi|, the fuller ones where |phi| is
+largest.
 """
 
 from __future__ import annotations
@@ -266,29 +271,49 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
 
 def whole_cell_layout(loss: ModalLoss, regions: Regions, share: np.ndarray, fill_pct: np.ndarray,
                       n_spheres: float, name: str = "optimised", members: list | None = None) -> Layout:
-    """Level k fills round(x_k N_k) of its cells at r_k, the first of ``members[k]`` (default:
-    those of largest |phi|); cells come off the outermost filled level while the budget is
-    exceeded."""
+    """Level k fills round(x_k N_k) of its cells, the first of ``members[k]`` (default: those
+    of largest |phi|), built at whole spheres (see the module's text); cells come off the
+    outermost filled level while the budget is exceeded."""
     members = regions.members if members is None else members
     counts = np.floor(share * regions.count + 0.5).astype(int)
-    per = loss.spheres(fill_pct)
-    while np.sum(counts * per) > n_spheres * (1 + 1e-9) and counts.sum() > 0:
-        counts[np.flatnonzero(counts)[-1]] -= 1
-    cells = [members[k][:counts[k]] for k in range(counts.size)]
-    fills = [np.full(counts[k], fill_pct[k]) for k in range(counts.size)]
-    return Layout(name, np.concatenate(cells) if cells else np.empty(0, int),
-                  np.concatenate(fills) if fills else np.empty(0))
+    fewest, most = loss.sphere_counts()
+    cells, spheres = [], []
+    for k in np.flatnonzero(counts):
+        c = int(counts[k])
+        n = int(math.floor(c * float(loss.spheres(fill_pct[k])) + 1e-9))
+        whole, left = divmod(n, c)
+        per = np.clip(np.r_[np.full(left, whole + 1), np.full(c - left, whole)], fewest, most)
+        cells.append(members[k][:c])
+        spheres.append(per)
+    cells = np.concatenate(cells) if cells else np.empty(0, int)
+    spheres = np.concatenate(spheres) if spheres else np.empty(0, int)
+    kept = cells.size
+    while kept and spheres[:kept].sum() > n_spheres:
+        kept -= 1
+    return Layout(name, cells[:kept], loss.fill_of(spheres[:kept]))
 
 
-def uniform_layout(n_total: int, n_filled: int, fill_pct: float, name: str = "source_uniform") -> Layout:
-    """n_filled cells spread evenly over the plate (every n_total / n_filled-th cell, column by column)."""
+def uniform_layout(n_total: int, n_filled: int, fill_pct, name: str = "source_uniform") -> Layout:
+    """n_filled cells spread evenly over the plate (every n_total / n_filled-th cell, column by
+    column), at ``fill_pct`` (%: one fill, or one per cell, given to the cells in that order)."""
     n_filled = int(min(max(n_filled, 0), n_total))
     cells = np.unique(np.floor((np.arange(n_filled) + 0.5) * n_total / max(n_filled, 1)).astype(int))
-    return Layout(name, cells, np.full(cells.size, float(fill_pct)))
+    return Layout(name, cells, np.broadcast_to(np.asarray(fill_pct, dtype=float), cells.shape))
 
 
-def antinode_layout(phi: np.ndarray, n_filled: int, fill_pct: float,
+def antinode_layout(phi: np.ndarray, n_filled: int, fill_pct,
                     name: str = "source_antinode") -> Layout:
-    """The n_filled cells of largest |phi| at one fill."""
+    """The n_filled cells of largest |phi| at ``fill_pct`` (%: one fill, or one per cell, given
+    to the cells from the largest |phi| down)."""
     order = np.argsort(-np.abs(phi), kind="stable")[:int(max(n_filled, 0))]
-    return Layout(name, np.sort(order), np.full(order.size, float(fill_pct)))
+    fills = np.broadcast_to(np.asarray(fill_pct, dtype=float), order.shape)
+    ranked = np.argsort(order, kind="stable")
+    return Layout(name, order[ranked], fills[ranked])
+
+
+def built_fills(cells: list[tuple[float, int]]) -> np.ndarray:
+    """One fill per cell of a design built at whole spheres, the fuller cells first, %.
+
+    ``cells``: (fill %, cells) pairs, :func:`pidpipe.design.built_cells.whole_sphere_cells`."""
+    ordered = sorted(cells, key=lambda pair: -pair[0])
+    return np.concatenate([np.full(count, fill) for fill, count in ordered]) if ordered else np.empty(0)

@@ -30,6 +30,7 @@ from typing import Callable
 
 import numpy as np
 
+from pidpipe.config.derived import cell_fill_pct
 from pidpipe.errors import DomainError
 from pidpipe.panel.plate import Mode
 
@@ -101,6 +102,34 @@ class ModalLoss:
     def spheres(self, fill_pct) -> np.ndarray:
         """Spheres per cell at fill r: full_cell_spheres r / 100 (not rounded)."""
         return self.full_cell_spheres * np.asarray(fill_pct, dtype=float) / 100.0
+
+    def sphere_counts(self) -> tuple[int, int]:
+        """The fewest and most whole spheres a cell may hold: from the count at or below the C_eq
+        model's lowest fill to the count at or above its highest (a table at whole-sphere fills
+        has both edges at counts; one named by nominal fills, e.g. 25 % of 21 spheres, has its
+        nearest counts read at the edge, :meth:`fill_of`, as a coupon design's built cells are,
+        :func:`pidpipe.design.built_cells.whole_sphere_cells`).
+
+        Raises
+        ------
+        DomainError
+            The domain holds no whole count."""
+        full = int(round(self.full_cell_spheres))
+        lo, hi = self.domain["fill_pct"]
+        fewest = max(1, int(math.floor(full * lo / 100.0 + 1e-6)))
+        most = min(full, int(math.ceil(full * hi / 100.0 - 1e-6)))
+        if fewest > most:
+            raise DomainError(f"no whole number of spheres (of {full} in a full cell) fills a cell "
+                              f"within the C_eq model's fill domain [{lo:g}, {hi:g}] %")
+        return fewest, most
+
+    def fill_of(self, spheres) -> np.ndarray:
+        """The fill of cells holding ``spheres`` whole spheres, rounded as every C_eq table row's
+        fill is (:func:`pidpipe.config.derived.cell_fill_pct`) and held to the C_eq model's fill
+        domain (:meth:`sphere_counts`), %; shape of ``spheres``."""
+        full = int(round(self.full_cell_spheres))
+        fills = np.vectorize(lambda n: cell_fill_pct(int(n), full), otypes=[float])(spheres)
+        return np.clip(fills, *self.domain["fill_pct"])
 
     def cell_effective_mass_kg(self, fill_pct, phi_abs=1.0) -> np.ndarray:
         """m_eff per cell at fill r and |phi| (default 1: at the antinode), kg."""

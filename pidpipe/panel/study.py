@@ -6,9 +6,10 @@ each design kind (peak, band_mean, worst_case) three layouts spend the same part
 
 ``source_uniform``
     the coupon design of that kind (:func:`pidpipe.design.designs.optimise_design` with the
-    plate's budget and cell count: n_c cells at one fill r), its cells spread evenly;
+    plate's budget and cell count: n_c cells, built at whole spheres,
+    :func:`pidpipe.design.built_cells.whole_sphere_cells`), its cells spread evenly;
 ``source_antinode``
-    the same n_c cells at r, placed where |phi| is largest;
+    the same n_c cells, placed where |phi| is largest (the fuller ones first);
 ``optimised``
     :func:`pidpipe.panel.layout.optimise_layout`.
 
@@ -28,7 +29,9 @@ import pandas as pd
 
 from pidpipe.config.panel import PanelSettings
 from pidpipe.panel.cells import cell_centres
-from pidpipe.panel.layout import antinode_layout, make_regions, optimise_layout, uniform_layout
+from pidpipe.design.built_cells import whole_sphere_cells
+from pidpipe.panel.layout import (antinode_layout, built_fills, make_regions, optimise_layout,
+                                  uniform_layout)
 from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
 from pidpipe.panel.mass import FULL_MASS, SurrogateEffectiveMass
 from pidpipe.panel.plate import Mode, Sandwich, plate_modes
@@ -145,8 +148,9 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                                        starts=settings.starts, seed=settings.seed,
                                        antinode_fills=(source.fill_pct,))
                 optimisation_s += time.process_time() - start
-                chosen = {"source_uniform": uniform_layout(len(centres), source.n_cells, source.fill_pct),
-                          "source_antinode": antinode_layout(phi, source.n_cells, source.fill_pct),
+                built = built_fills(whole_sphere_cells(budget, source.n_cells, model.domain["fill_pct"]))
+                chosen = {"source_uniform": uniform_layout(len(centres), source.n_cells, built),
+                          "source_antinode": antinode_layout(phi, source.n_cells, built),
                           "optimised": best.layout}
                 for name in LAYOUTS:
                     layout = chosen[name]

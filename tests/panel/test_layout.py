@@ -8,7 +8,8 @@ import pytest
 from scipy.special import gamma
 
 from pidpipe.panel.cells import cell_area_m2, cell_centres
-from pidpipe.panel.layout import antinode_layout, make_regions, optimise_layout, uniform_layout
+from pidpipe.panel.layout import (antinode_layout, built_fills, make_regions, optimise_layout,
+                                  uniform_layout)
 from pidpipe.panel.loss import AccelBand, ModalLoss
 from pidpipe.panel.plate import navier_mode
 from tests.panel.test_plate import TABLE_2
@@ -118,3 +119,34 @@ def test_a_measured_effective_mass_per_cell_can_replace_the_beds_whole_mass():
     assert half.modal_mass_kg(layout) - loss.mode.modal_mass_kg == pytest.approx(0.5 * whole)
     assert whole == pytest.approx(np.sum(loss.phi[layout.cells] ** 2) * 21 * 0.5 * SPHERE_KG)
     assert half.frequency_hz(layout) > loss.frequency_hz(layout)
+
+
+def test_the_optimised_layout_is_built_at_whole_spheres_within_the_budget():
+    """On a table at whole-sphere fills (6 to 18 of 21 spheres), every cell of the optimised
+    layout holds a whole count, a level's cells at most two neighbouring counts, and the
+    whole counts spend no more than the budget."""
+    loss, _ = mode_loss()
+    loss.domain = {**DOMAIN, "fill_pct": (round(600 / 21, 3), round(1800 / 21, 3))}
+    regions = make_regions(loss.phi, 6)
+    budget = 2500.0
+    result = optimise_layout(loss, grows, regions, AccelBand(5.0, 6.0), "band_mean", budget)
+    spheres = loss.spheres(result.layout.fill_pct)
+    counts = np.round(spheres)
+    assert np.allclose(spheres, counts, atol=1e-3) and counts.min() >= 6 and counts.max() <= 18
+    assert counts.sum() <= budget and counts.sum() > 0.98 * budget
+    level = regions.level[result.layout.cells]
+    for k in np.unique(level):
+        held = np.unique(counts[level == k])
+        assert held.size <= 2 and np.ptp(held) <= 1
+
+
+def test_a_source_layout_puts_the_fuller_cells_of_a_built_design_where_phi_is_largest():
+    loss, centres = mode_loss()
+    fills = built_fills([(round(500 / 21, 3), 290), (round(600 / 21, 3), 10)])
+    assert list(fills[:10]) == [round(600 / 21, 3)] * 10 and fills.size == 300
+    antinode = antinode_layout(loss.phi, 300, fills)
+    fuller = antinode.cells[antinode.fill_pct > 25.0]
+    others = antinode.cells[antinode.fill_pct < 25.0]
+    assert fuller.size == 10 and np.abs(loss.phi[fuller]).min() >= np.abs(loss.phi[others]).max()
+    uniform = uniform_layout(len(centres), 300, fills)
+    assert sorted(uniform.fill_pct) == sorted(fills)
