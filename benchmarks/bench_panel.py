@@ -6,17 +6,13 @@ Fits the configured surrogate to the C_eq table (default: the analytic table of
 tests/design/test_optimise_command.py, C = f G r exp(-r/30) / 1000 on the reference grid),
 then for every environment and every mode in its band times the region layout optimisation of
 each design (peak, band_mean, worst_case) in CPU seconds, and the whole modal stage (coupon
-designs, bootstrap intervals, forced responses). Prints the figures and writes
-benchmarks/records/bench_panel.json.
+designs, bootstrap intervals, forced responses). Prints the figures and records them
+(benchmarks/records/bench_panel.json and its history, :mod:`harness`).
 """
 
 from __future__ import annotations
 
 import argparse
-import datetime
-import json
-import os
-import platform
 import sys
 import tempfile
 import time
@@ -24,6 +20,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from harness import record  # noqa: E402
 
 from pidpipe.config import load_config  # noqa: E402
 from pidpipe.config.panel import PanelSettings  # noqa: E402
@@ -35,8 +32,6 @@ from pidpipe.panel.loss import KINDS, AccelBand, ModalLoss  # noqa: E402
 from pidpipe.panel.study import sandwich_of  # noqa: E402
 from pidpipe.panel.plate import plate_modes  # noqa: E402
 from pidpipe.steps.panel import panel_study_from_config  # noqa: E402
-
-RECORD = ROOT / "benchmarks" / "records" / "bench_panel.json"
 
 
 def main() -> None:
@@ -56,7 +51,7 @@ def main() -> None:
     settings = PanelSettings.from_config(config)
     modes = plate_modes(sandwich_of(settings), settings.length_m, settings.width_m, settings.max_freq_hz)
     centres = cell_centres(settings.length_m, settings.width_m, settings.cell_inscribed_diameter_m)
-    figures, lines = {"cells": int(len(centres)), "spheres": settings.n_spheres, "layouts": {}}, []
+    figures, lines = {"cells": int(len(centres)), "spheres": settings.n_spheres}, []
     total = 0.0
     for env in config["environments"]:
         band = AccelBand(*env["accel_g"])
@@ -72,10 +67,10 @@ def main() -> None:
                 cpu = time.process_time() - start
                 total += cpu
                 key = f"{env['name']} / mode ({mode.m},{mode.n}) / {kind}"
-                figures["layouts"][key] = {"cpu_s": round(cpu, 3), "starts": result.n_starts,
-                                           "converged": result.n_converged,
-                                           "evaluations": result.n_evaluations,
-                                           "eta": result.objective}
+                figures.update({f"{key} cpu_s": round(cpu, 3), f"{key} starts": result.n_starts,
+                                f"{key} converged": result.n_converged,
+                                f"{key} evaluations": result.n_evaluations,
+                                f"{key} eta": result.objective})
                 lines.append(f"  {key:<48} {cpu:7.2f} CPU-s  {result.n_starts} starts "
                              f"({result.n_converged} converged), {result.n_evaluations} evaluations")
     start = time.process_time()
@@ -92,13 +87,7 @@ def main() -> None:
     print(f"layout optimisation, every environment and design: {total:.2f} CPU-s")
     print(f"whole modal stage (coupon designs, {settings.surrogate_draws} bootstrap refits, "
           f"forced responses): {figures['stage_cpu_s']:.2f} CPU-s, {figures['stage_wall_s']:.2f} s wall")
-    record = {"benchmark": "bench_panel", "command": command,
-              "machine": {"host": platform.node(), "cpus": os.cpu_count(),
-                          "python": platform.python_version(), "platform": platform.platform()},
-              "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
-              "figures": figures}
-    RECORD.parent.mkdir(parents=True, exist_ok=True)
-    RECORD.write_text(json.dumps(record, indent=1) + "\n")
+    record("bench_panel", figures, command=command)
 
 
 if __name__ == "__main__":
