@@ -20,9 +20,9 @@ the peak as the band grid's best point); the best is the answer. Rounding to who
 spheres: level k fills c_k = round(x_k N_k) of its cells and spends n_k = floor(c_k s(r_k))
 spheres on them as a design is built (:mod:`pidpipe.design.built_cells`): w_k = floor(n_k / c_k)
 in each and one more in the first n_k - w_k c_k, each cell at its count's fill (counts held to
-the C_eq model's fill domain, :meth:`pidpipe.panel.loss.ModalLoss.sphere_counts`);
-cells are taken off the outermost filled level while the budget is exceeded. Within a level the cells are taken
-best first by their own contribution C_eq(f, G |phi_i|, r_k) phi_i^2 over the design's
+the C_eq model's fill domain, :meth:`pidpipe.panel.loss.ModalLoss.sphere_counts`); cells are
+taken off the outermost filled level while the budget is exceeded. Within a level the cells are
+taken best first by their own contribution C_eq(f, G |phi_i|, r_k) phi_i^2 over the design's
 accelerations (the level's largest |phi| first when C_eq grows with G, its middle when C_eq
 peaks inside the level).
 

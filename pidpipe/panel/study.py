@@ -148,7 +148,8 @@ def run_panel_study(settings: PanelSettings, surrogate, environments: list, sear
                                        starts=settings.starts, seed=settings.seed,
                                        antinode_fills=(source.fill_pct,))
                 optimisation_s += time.process_time() - start
-                built = built_fills(whole_sphere_cells(budget, source.n_cells, model.domain["fill_pct"]))
+                built = built_fills(whole_sphere_cells(budget, source.n_cells,
+                                                       model.domain["fill_pct"]))
                 chosen = {"source_uniform": uniform_layout(len(centres), source.n_cells, built),
                           "source_antinode": antinode_layout(phi, source.n_cells, built),
                           "optimised": best.layout}

@@ -11,9 +11,9 @@ Round N (:func:`refine`):
 5. stop when every design's interval meets the criterion and every one of its points passes
    (``criterion met``), or at ``refine.max_rounds`` (``max rounds reached``);
 6. choose the round's cases (:mod:`pidpipe.refine.choice`: reruns of the failing verifying
-   points, and cases for the designs whose interval is still wide), keep those that fit in what is left
-   of ``refine.max_cpu_s`` (planned CPU, in the order chosen), and run them; when none fits,
-   stop (``cpu budget spent``), and when there is nothing to choose (``nothing left to run``).
+   points, and cases for the designs whose interval is still wide), keep those that fit in what
+   is left of ``refine.max_cpu_s`` (planned CPU, in the order chosen), and run them; when none
+   fits, stop (``cpu budget spent``), and when there is nothing to choose (``nothing left to run``).
 
 The table is the loop's only state, and it is append-only: every row says its round, its
 action and its planned CPU (:mod:`pidpipe.refine.table`). Every decision of round N depends on
