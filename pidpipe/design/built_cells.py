@@ -23,14 +23,18 @@ from pidpipe.config.derived import cell_fill_pct
 from pidpipe.config.settings import Budget
 
 
-def whole_sphere_counts(budget: Budget, n_cells: int) -> tuple[int, int]:
-    """(w, L): the budget's n_b spheres over n_c cells put w = floor(n_b / n_c) in every cell and
-    one more in L = n_b - w n_c of them."""
-    n_cells, n_spheres = int(n_cells), int(round(budget.n_spheres))
+def split_spheres(n_spheres: int, n_cells: int) -> tuple[int, int]:
+    """(w, L): n spheres over c cells put w = floor(n / c) in every cell and one more in
+    L = n - w c of them."""
+    n_cells, n_spheres = int(n_cells), int(n_spheres)
     if n_cells < 1:
         raise ValueError(f"a design fills at least one cell, got {n_cells}")
-    whole = n_spheres // n_cells
-    return whole, n_spheres - whole * n_cells
+    return divmod(n_spheres, n_cells)
+
+
+def whole_sphere_counts(budget: Budget, n_cells: int) -> tuple[int, int]:
+    """(w, L) of the budget's n_b spheres over n_c cells (:func:`split_spheres`)."""
+    return split_spheres(int(round(budget.n_spheres)), n_cells)
 
 
 def whole_sphere_cells(budget: Budget, n_cells: int,

@@ -42,6 +42,7 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import qmc
 
+from pidpipe.design.built_cells import split_spheres
 from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
 
 
@@ -280,8 +281,7 @@ def whole_cell_layout(loss: ModalLoss, regions: Regions, share: np.ndarray, fill
     cells, spheres = [], []
     for k in np.flatnonzero(counts):
         c = int(counts[k])
-        n = int(math.floor(c * float(loss.spheres(fill_pct[k])) + 1e-9))
-        whole, left = divmod(n, c)
+        whole, left = split_spheres(math.floor(c * float(loss.spheres(fill_pct[k])) + 1e-9), c)
         per = np.clip(np.r_[np.full(left, whole + 1), np.full(c - left, whole)], fewest, most)
         cells.append(members[k][:c])
         spheres.append(per)

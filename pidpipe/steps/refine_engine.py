@@ -79,8 +79,10 @@ from pidpipe.refine.candidates import Request
 
 logger = logging.getLogger("pidpipe.refine")
 
-#: Replicate numbers of the loop's own runs: extensions from 100, verifying runs from 200
-#: (the campaign's replicates stay below 100, :mod:`pidpipe.steps.cases`).
+#: Replicate numbers of the loop's own runs: extensions from 101 (100 + the replicates of the
+#: row extended), verifying runs from 200 (the campaign's replicates stay below 100,
+#: :mod:`pidpipe.steps.cases`; 100 is the verify step's,
+#: :data:`pidpipe.loop.verify.VERIFY_REPLICATE`).
 EXTEND_REPLICATES_FROM, VERIFY_REPLICATES_FROM = 100, 200
 
 
@@ -327,15 +329,14 @@ class CaseEngine:
         from pidpipe.steps.cases import pool_packing_path
 
         folder = self.work_dir / "packings"
-        missing: dict[float, list[int]] = {}
+        missing: dict[float, dict[int, None]] = {}           # per fill, the indices in order
         for plan in plans:
-            if self._stored(plan) is not None:
-                continue
-            fill = plan.case.fill_pct
-            for index in plan.packings:
-                if (not pool_packing_path(folder, fill, index).is_file()
-                        and index not in missing.setdefault(fill, [])):
-                    missing[fill].append(index)
+            if self._stored(plan) is None:
+                fill = plan.case.fill_pct
+                missing.setdefault(fill, {}).update(
+                    (index, None) for index in plan.packings
+                    if not pool_packing_path(folder, fill, index).is_file())
+        missing = {fill: list(indices) for fill, indices in missing.items() if indices}
         batches = [(fill, indices[k::self.cores]) for fill, indices in sorted(missing.items())
                    for k in range(self.cores) if indices[k::self.cores]]
         if len(batches) < 2:
@@ -348,14 +349,18 @@ class CaseEngine:
 
     def _pour_batch(self, batch: tuple[float, list[int]]) -> dict:
         """Pour one fill's packings into the pool (a worker's task); what it spent, s."""
+        return self._pool_packings(*batch)[1]
+
+    def _pool_packings(self, fill_pct: float, indices) -> tuple[list, dict]:
+        """The pool's packings ``indices`` of a fill (poured when missing), and what pouring them
+        spent: ``pour_wall_s`` and ``pour_cpu_s`` (this process's CPU and its children's), s."""
         from pidpipe.steps.cases import pool_packings
 
-        fill, indices = batch
         before, wall = os.times(), time.perf_counter()
-        pool_packings(self.pour, fill, list(indices), self.work_dir / "packings")
+        packings = pool_packings(self.pour, fill_pct, list(indices), self.work_dir / "packings")
         after = os.times()
-        return {"pour_wall_s": time.perf_counter() - wall,
-                "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
+        return packings, {"pour_wall_s": time.perf_counter() - wall,
+                          "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
 
     def _stored_or_planned(self, plans: list[Plan]) -> list:
         """The plans' stored records (as ``(record, None)``); when some are missing, write their
@@ -394,7 +399,7 @@ class CaseEngine:
     def _record(self, plan: Plan) -> tuple:
         """The plan's case record, and what making it spent (None when ``work_dir`` had it)."""
         from pidpipe.cell.packing import check_packing
-        from pidpipe.steps.cases import measure_case, pool_packings
+        from pidpipe.steps.cases import measure_case
 
         case = plan.case
         path = self.record_path(case.case_id)
@@ -405,12 +410,7 @@ class CaseEngine:
         sampling = replace(base, cells_per_run=plan.cells, measured_cycles=plan.measured_cycles,
                            max_cells_per_case=max(plan.cells, base.max_cells_per_case))
         settings = replace(self.shake, sampling=sampling)
-        before, wall = os.times(), time.perf_counter()
-        packings = pool_packings(self.pour, case.fill_pct, list(plan.packings),
-                                 self.work_dir / "packings")
-        after = os.times()
-        spent = {"pour_wall_s": time.perf_counter() - wall,
-                 "pour_cpu_s": sum(after[:4]) - sum(before[:4])}
+        packings, spent = self._pool_packings(case.fill_pct, plan.packings)
         for packing in packings:
             check_packing(packing, case.case_id)
         logger.info("refine: shaking %s: %d cell(s) of %d spheres x %d measured cycles (%s)",
