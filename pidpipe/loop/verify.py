@@ -65,16 +65,30 @@ its engine).
 
 The comparison (:func:`compare`)
 --------------------------------
-z_combined = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), for the coupon's C_eq (what the
-surrogate models); ``surrogate_off`` is |z_combined| > ``flag_z``.
+t_combined = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), for the coupon's C_eq (what the
+surrogate models), judged by its degrees of freedom as the refinement loop judges its verifying
+points (:mod:`pidpipe.refine.verification`). The DEM's SEM is its cells' spread
+(:func:`pidpipe.measurement.cells.mean_of_cells`), so it has ``dem_dof`` = cells - 1 degrees of
+freedom, cells the record's ``n_cells_measured`` (its target's cells, else its run's
+``cells_per_run``); one cell, or no count, leaves it unknown, taken as infinite. u_s is taken as
+known. Then t has nu = (SEM_dem^2 + u_s^2)^2 / (SEM_dem^4 / dem_dof) degrees of freedom
+(Welch-Satterthwaite), and z_combined is the standard normal score of the same two-sided tail
+probability under Student's t of nu degrees of freedom
+(:func:`pidpipe.refine.verification.normal_score`; z = t when nu is infinite), so ``flag_z``
+keeps its meaning, a tail probability, whatever the cells: a case that ends at a 7-cell pilot
+(6 degrees of freedom, u_s small beside its SEM) passes up to |t| = 2.52 at ``flag_z`` = 2,
+where judged as normal it would fail a calibrated surrogate at twice the rate the flag means.
+``surrogate_off`` is |z_combined| > ``flag_z``.
 
 The effective mass is compared the same way when there is an m_eff surrogate
 (:func:`m_eff_predictions`, the campaign's GP of one cell's m_eff): the verifying case's m_eff
 of the mean cell ± its SEM (its record's ``harmonics``) against the surrogate's prediction ±
 its predictive standard uncertainty (with the excess scatter), read at the case's fill as
-C_eq is, and z_m_eff = (m_dem - m_s) / sqrt(SEM_dem^2 + u_m^2); ``m_eff_off`` is
-|z_m_eff| > ``flag_z``. Without an m_eff surrogate, or a record without harmonics, those
-columns are NaN.
+C_eq is, and t_m_eff = (m_dem - m_s) / sqrt(SEM_dem^2 + u_m^2). The m_eff SEM comes from
+the same cells as C_eq's (:func:`pidpipe.measurement.harmonics.mean_cell` over the record's
+cells), so t_m_eff is judged by the same ``dem_dof``: z_m_eff is its normal score as above, and
+``m_eff_off`` is |z_m_eff| > ``flag_z``. Without an m_eff surrogate, or a record without
+harmonics, those columns are NaN.
 """
 
 from __future__ import annotations
@@ -107,15 +121,15 @@ POINT_COLUMNS: tuple[str, ...] = (
 
 #: Columns of results/verify.csv, in order.
 VERIFY_COLUMNS: tuple[str, ...] = POINT_COLUMNS + (
-    "engine", "solver", "dem_status", "dem_flags", "n_cycles", "n_cells_measured",
+    "engine", "solver", "dem_status", "dem_flags", "n_cycles", "n_cells_measured", "dem_dof",
     "transient_cycles", "steps_per_cycle",
     "target_relative_sem", "target_reached", "dem_cpu_time_s",
     "ceq_coupon_dem_ns_m", "ceq_coupon_dem_sem_ns_m",
     "surrogate_method", "ceq_coupon_surrogate_ns_m", "surrogate_u_method",
     "surrogate_noise_sd_ns_m", "surrogate_interp_sd_ns_m", "surrogate_u_ns_m", "difference_ns_m",
-    "z_combined", "surrogate_off",
+    "t_combined", "z_combined", "surrogate_off",
     "m_eff_dem_kg", "m_eff_dem_sem_kg", "m_eff_surrogate_kg", "m_eff_surrogate_u_kg",
-    "z_m_eff", "m_eff_off", "note",
+    "t_m_eff", "z_m_eff", "m_eff_off", "note",
 )
 
 #: The m_eff columns of :func:`m_eff_predictions`, kg.
@@ -287,8 +301,8 @@ def _surrogate_query(surrogate, points: pd.DataFrame):
 
 def z_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
                surrogate_u: np.ndarray) -> np.ndarray:
-    """(C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), shape of the inputs; NaN where the combined
-    uncertainty is not a positive number."""
+    """t = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), shape of the inputs; NaN where the combined
+    uncertainty is not a positive number (:func:`compare` judges it by its degrees of freedom)."""
     dem, dem_sem, surrogate, surrogate_u = (np.asarray(a, dtype=float)
                                             for a in (dem, dem_sem, surrogate, surrogate_u))
     combined = np.hypot(dem_sem, surrogate_u)
@@ -296,9 +310,19 @@ def z_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
         return np.where(combined > 0, (dem - surrogate) / combined, np.nan)
 
 
+def dem_dof(cells) -> np.ndarray:
+    """Degrees of freedom of a DEM SEM from ``cells`` cells: cells - 1, inf where the count is
+    unknown (NaN) or below 2 (one cell's SEM is its cycles', of no known count); shape of
+    ``cells``."""
+    cells = np.asarray(cells, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return np.where(cells >= 2, cells - 1.0, np.inf)
+
+
 def is_off(z: np.ndarray, flag_z: float) -> np.ndarray:
-    """Whether the surrogate is off by more than ``flag_z`` combined standard uncertainties
-    (False where z is NaN)."""
+    """Whether |z| exceeds ``flag_z`` (z the normal score of t, :func:`compare`): the surrogate
+    is off by more than its and the DEM's standard uncertainties allow at that tail
+    probability (False where z is NaN)."""
     z = np.asarray(z, dtype=float)
     return np.isfinite(z) & (np.abs(z) > float(flag_z))
 
@@ -415,13 +439,18 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
     -------
     pandas.DataFrame
         :data:`VERIFY_COLUMNS`, m rows (C_eq in N*s/m, m_eff of one cell in kg; a shared case
-        repeats in each of its designs' rows).
+        repeats in each of its designs' rows). ``t_combined`` and ``t_m_eff`` are the
+        differences over their combined standard uncertainties; ``z_combined`` and ``z_m_eff``
+        their normal scores at the Welch-Satterthwaite degrees of freedom of the DEM's
+        ``dem_dof`` (the module's text).
 
     Raises
     ------
     PidpipeError
         A case of the plan has no record, or a record is of another case.
     """
+    from pidpipe.refine.verification import normal_score     # scipy.stats: not at the plan's import
+
     missing = [c for c in unique_case_ids(points) if c not in records]
     if missing:
         raise PidpipeError(f"no record of the verifying case(s) {', '.join(missing)}")
@@ -434,24 +463,27 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
     dem = pd.DataFrame(rows, index=points.index)
     table = pd.concat([points, dem, predictions.set_index(points.index)], axis=1)
     table["difference_ns_m"] = table["ceq_coupon_dem_ns_m"] - table["ceq_coupon_surrogate_ns_m"]
-    table["z_combined"] = z_combined(table["ceq_coupon_dem_ns_m"], table["ceq_coupon_dem_sem_ns_m"],
-                                     table["ceq_coupon_surrogate_ns_m"], table["surrogate_u_ns_m"])
-    table["surrogate_off"] = is_off(table["z_combined"], flag_z)
+    table["dem_dof"] = dem_dof(table["n_cells_measured"])
     for column in M_EFF_PREDICTION_COLUMNS:
         if column not in table.columns:
             table[column] = math.nan
-    table["z_m_eff"] = z_combined(table["m_eff_dem_kg"], table["m_eff_dem_sem_kg"],
-                                  table["m_eff_surrogate_kg"], table["m_eff_surrogate_u_kg"])
-    table["m_eff_off"] = is_off(table["z_m_eff"], flag_z)
+    for t, z, off, value, sem, surrogate, surrogate_u in (
+            ("t_combined", "z_combined", "surrogate_off", "ceq_coupon_dem_ns_m",
+             "ceq_coupon_dem_sem_ns_m", "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m"),
+            ("t_m_eff", "z_m_eff", "m_eff_off", "m_eff_dem_kg", "m_eff_dem_sem_kg",
+             "m_eff_surrogate_kg", "m_eff_surrogate_u_kg")):
+        table[t] = z_combined(table[value], table[sem], table[surrogate], table[surrogate_u])
+        table[z] = normal_score(table[t], table[sem], table["dem_dof"], table[surrogate_u])
+        table[off] = is_off(table[z], flag_z)
     notes = []
     for _, row in table.iterrows():
         note = row["note"]
         if row["surrogate_off"]:
-            note = _join(note, f"surrogate off by {row['z_combined']:+.1f} combined standard "
-                               f"uncertainties (|z| > {flag_z:g})")
+            note = _join(note, f"surrogate off by {row['t_combined']:+.1f} combined standard "
+                               f"uncertainties (|z| {abs(row['z_combined']):.2f} > {flag_z:g})")
         if row["m_eff_off"]:
-            note = _join(note, f"m_eff surrogate off by {row['z_m_eff']:+.1f} combined standard "
-                               f"uncertainties (|z| > {flag_z:g})")
+            note = _join(note, f"m_eff surrogate off by {row['t_m_eff']:+.1f} combined standard "
+                               f"uncertainties (|z| {abs(row['z_m_eff']):.2f} > {flag_z:g})")
         if row["dem_status"] != "ok":
             note = _join(note, f"DEM case {row['dem_status']}"
                                + (f" ({row['dem_flags']})" if row["dem_flags"] else ""))
@@ -463,12 +495,14 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
 def off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the C_eq surrogate is off (for the rule's log)."""
     return _off_lines(table, "surrogate_off", "", "ceq_coupon_dem_ns_m", "ceq_coupon_dem_sem_ns_m",
-                      "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m", "N*s/m", "z_combined")
+                      "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m", "N*s/m", "t_combined",
+                      "z_combined")
 
 
 def worst_z_line(table: pd.DataFrame) -> str:
     """``<environment> |z| <worst> (<design>, <point>); ...``: each environment's largest
-    |z_combined| over its design points (for the rule's log); ``-`` where no point has a z."""
+    |z_combined| (the normal score of t at its degrees of freedom, :func:`compare`) over its
+    design points (for the rule's log); ``-`` where no point has a z."""
     parts = []
     for environment, rows in table.groupby("environment", sort=False):
         z = rows["z_combined"].abs()
@@ -487,8 +521,9 @@ def calibration_line(table: pd.DataFrame, flag_z: float) -> str:
     ``n case(s): RMS z r; worst |z| w, which the worst of n independent points of a calibrated
     surrogate exceeds with probability p; |z| > flag_z at k (expected about e)``. Each distinct
     case counts once (two designs sharing a case read the same prediction). For a calibrated
-    surrogate z is standard normal: RMS z is about 1, and the worst of n exceeds w with
-    probability 1 - (1 - 2 Phi(-w))^n. Points of a design share its fill and packings, so they
+    surrogate z (``z_combined``, t's normal score at its degrees of freedom) is standard
+    normal: RMS z is about 1, and the worst of n exceeds w with probability
+    1 - (1 - 2 Phi(-w))^n. Points of a design share its fill and packings, so they
     are not independent and the true probabilities are smaller; ``-`` without a z.
     """
     from scipy.stats import norm
@@ -509,16 +544,17 @@ def calibration_line(table: pd.DataFrame, flag_z: float) -> str:
 def m_eff_off_lines(table: pd.DataFrame) -> list[str]:
     """One line per row where the m_eff surrogate is off (for the rule's log)."""
     return _off_lines(table, "m_eff_off", "m_eff ", "m_eff_dem_kg", "m_eff_dem_sem_kg",
-                      "m_eff_surrogate_kg", "m_eff_surrogate_u_kg", "kg", "z_m_eff")
+                      "m_eff_surrogate_kg", "m_eff_surrogate_u_kg", "kg", "t_m_eff", "z_m_eff")
 
 
 def _off_lines(table: pd.DataFrame, flag: str, label: str, dem: str, dem_sem: str,
-               surrogate: str, surrogate_u: str, unit: str, z: str) -> list[str]:
+               surrogate: str, surrogate_u: str, unit: str, t: str, z: str) -> list[str]:
     """``<environment>, <design>, <point> (<case>): DEM <label>x +- s, surrogate y +- u <unit>,
-    z = ...`` for every row whose ``flag`` column is set."""
+    t = ... (<dof> dof), z = ...`` for every row whose ``flag`` column is set."""
     return [f"{row['environment']}, {row['design']}, {row['point']} ({row['case_id']}): DEM "
             f"{label}{row[dem]:.4g} +- {row[dem_sem]:.2g}, surrogate "
-            f"{row[surrogate]:.4g} +- {row[surrogate_u]:.2g} {unit}, z = {row[z]:+.2f}"
+            f"{row[surrogate]:.4g} +- {row[surrogate_u]:.2g} {unit}, t = {row[t]:+.2f} "
+            f"({row['dem_dof']:g} dof), z = {row[z]:+.2f}"
             for _, row in table[table[flag]].iterrows()]
 
 

@@ -159,12 +159,12 @@ def test_the_surrogate_is_read_at_the_cases_fill_and_a_fill_off_its_domain_is_he
     assert u["note"].str.contains("edge 25 % (the case's fill is 23.81 %)", regex=False).all()
 
 
-def record(case_id, value, sem, status="ok", flags=()):
+def record(case_id, value, sem, status="ok", flags=(), cells=1):
     case = CaseSpec.from_id(case_id)
     return CaseRecord(case_id=case_id, status=status, flags=list(flags), solver="numba-dem",
                       freq_hz=case.freq_hz, accel_g=case.accel_g, fill_pct=case.fill_pct,
                       ceq_coupon_ns_m=value, ceq_coupon_sem_ns_m=sem, n_cycles=10,
-                      fidelity={"engine": "dem", "cells_per_run": 1, "transient_cycles": 30,
+                      fidelity={"engine": "dem", "cells_per_run": cells, "transient_cycles": 30,
                                 "steps_per_cycle": 2000},
                       engine={"name": "dem", "cpu_time_s": 1.5})
 
@@ -200,6 +200,76 @@ def test_compare_flags_a_surrogate_that_is_off_and_keeps_a_shared_case_in_each_d
     assert off["note"].str.contains("DEM case flagged (not_steady)", regex=False).all()
     assert (table["engine"] == "dem").all() and (table["dem_cpu_time_s"] == 1.5).all()
     assert len(off_lines(table)) == 2
+
+
+def judged(cells, t, dem_sem=5.0, surrogate_u=1.0, target_cells=None):
+    """compare() of one design's five points, every case's DEM value t combined standard
+    uncertainties above the surrogate's (C_eq and m_eff alike), its record of ``cells`` cells
+    (``target_cells``: a case measured to a target that ended with that many)."""
+    points = plan_points([design("A", "peak", 44.0)], 21)
+    n = len(points)
+    predictions = pd.DataFrame({
+        "surrogate_method": "gp", "ceq_coupon_surrogate_ns_m": np.full(n, 100.0),
+        "surrogate_u_method": "gp_predictive", "surrogate_noise_sd_ns_m": np.nan,
+        "surrogate_interp_sd_ns_m": np.nan, "surrogate_u_ns_m": np.full(n, surrogate_u),
+        "note": "", "m_eff_surrogate_kg": np.full(n, 1e-4),
+        "m_eff_surrogate_u_kg": np.full(n, 1e-6 * surrogate_u)})
+    shift = t * np.hypot(dem_sem, surrogate_u)
+    records = {}
+    for case_id in unique_case_ids(points):
+        made = record(case_id, 100.0 + shift, dem_sem, cells=cells).with_(
+            harmonics={"m_eff_cell_kg": 1e-4 + 1e-6 * shift, "m_eff_cell_sem_kg": 1e-6 * dem_sem})
+        if target_cells is not None:
+            made = made.with_(target={"relative_sem": 0.05, "reached": False,
+                                      "cells": target_cells})
+        records[case_id] = made
+    return compare(points, records, predictions, flag_z=2.0)
+
+
+def test_a_point_is_judged_by_its_dem_sems_degrees_of_freedom():
+    """A 7-cell pilot's SEM has 6 degrees of freedom: t = 2.3 passes at flag_z = 2 (its normal
+    score is below 2), where 200 cells (199 dof) and the same t fail, as a normal z does."""
+    from scipy import stats
+
+    few = judged(cells=1, t=2.3, target_cells=7)                 # the pilot of 7, target unreached
+    many = judged(cells=200, t=2.3)
+    for table, dof in ((few, 6.0), (many, 199.0)):
+        assert (table["n_cells_measured"] == dof + 1).all() and (table["dem_dof"] == dof).all()
+        for t, z in (("t_combined", "z_combined"), ("t_m_eff", "z_m_eff")):
+            np.testing.assert_allclose(table[t], 2.3)
+            # Welch-Satterthwaite: SEM 5 with the dof, the surrogate's 1 taken as known
+            nu = (5.0**2 + 1.0**2) ** 2 / (5.0**4 / dof)
+            np.testing.assert_allclose(table[z], stats.norm.isf(stats.t.sf(2.3, nu)))
+    assert not few["surrogate_off"].any() and not few["m_eff_off"].any()
+    assert (few["z_combined"] < 1.95).all()
+    assert many["surrogate_off"].all() and many["m_eff_off"].all()
+    assert many["note"].str.contains("surrogate off by +2.3 combined standard uncertainties "
+                                     "(|z| 2.28 > 2)", regex=False).all()
+    assert off_lines(many)[0].endswith("t = +2.30 (199 dof), z = +2.28")
+
+
+def test_z_is_t_where_the_dem_sems_degrees_of_freedom_are_unknown():
+    """One cell (its SEM its cycles', of no known count), or no count at all: dof inf, z = t."""
+    for cells in (1, 0):
+        table = judged(cells=cells, t=2.3)
+        assert np.isinf(table["dem_dof"]).all()
+        np.testing.assert_array_equal(table["z_combined"], table["t_combined"])
+        np.testing.assert_array_equal(table["z_m_eff"], table["t_m_eff"])
+        assert table["surrogate_off"].all()
+
+
+def test_a_7_cell_pilot_passes_up_to_t_2_52_at_flag_z_2():
+    """The docs' figure: with the surrogate's uncertainty small beside the DEM's SEM, t has the
+    pilot's 6 degrees of freedom, and the |t| that z = 2 allows is 2.52."""
+    from scipy import stats
+
+    limit = stats.t.isf(stats.norm.sf(2.0), 6.0)
+    assert round(limit, 2) == 2.52
+    # judged as normal, |t| > 2 would flag such a case about twice as often as flag_z = 2 means
+    assert stats.t.sf(2.0, 6.0) / stats.norm.sf(2.0) == pytest.approx(2.0, abs=0.05)
+    inside = judged(cells=7, t=limit - 0.01, surrogate_u=1e-6)
+    outside = judged(cells=7, t=limit + 0.01, surrogate_u=1e-6)
+    assert not inside["surrogate_off"].any() and outside["surrogate_off"].all()
 
 
 def test_compare_refuses_a_missing_or_mismatched_record():
