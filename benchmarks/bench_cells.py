@@ -58,6 +58,7 @@ from pidpipe.config import load_config
 from pidpipe.config.settings import PourSettings, ShakeSettings
 from pidpipe.dem.pouring import replicate_packings
 from pidpipe.liggghts.shake import run_case
+from pidpipe.measurement.case_record import CaseRecord
 
 ACCEL_G, FILL_PCT = 5.0, 50.0
 
@@ -151,6 +152,34 @@ def measure_cost(engine: str = "liggghts", folder_arg: str | None = None,
                  + (" Runs kept from the stored entry; pours measured now." if pours_only else ""))
 
 
+def compare_cells(freq: float, together: CaseRecord,
+                  alone: list[CaseRecord]) -> tuple[str, dict]:
+    """One frequency's table line and figures: the run of k cells (``together``) against the k
+    packings each shaken alone (``alone``, in the same order), from the records' attributes."""
+    cpu_alone = sum(r.engine["liggghts_cpu_time_s"] for r in alone)
+    cpu_together = together.engine["liggghts_cpu_time_s"]
+    z = [(cell["ceq_cell_ns_m"] - single.ceq_cell_ns_m)
+         / math.hypot(cell["ceq_cell_sem_ns_m"], single.ceq_cell_sem_ns_m)
+         for cell, single in zip((together.cells or ())[1:], alone[1:])]
+    max_z = float(np.max(np.abs(z))) if z else float("nan")
+    ceq = together.ceq_cell_ns_m
+    cycle = together.ceq_cell_cycle_sem_ns_m
+    between = together.ceq_cell_between_cells_sem_ns_m
+    line = (f"| {freq:g} | {cpu_together:.1f} | {cpu_alone:.1f} | "
+            f"{cpu_together / cpu_alone:.2f} | {ceq:.4g} | "
+            f"{cycle:.2g} ({cycle / ceq:.1%}) | "
+            f"{between:.2g} ({between / ceq:.1%}) | "
+            f"{between / cycle:.2f} | {max_z:.2f} |")
+    figures = {f"f{freq:g}Hz_cpu_together_s": round(cpu_together, 2),
+               f"f{freq:g}Hz_cpu_alone_s": round(cpu_alone, 2),
+               f"f{freq:g}Hz_cpu_ratio": round(cpu_together / cpu_alone, 3),
+               f"f{freq:g}Hz_ceq_cell_ns_m": ceq,
+               f"f{freq:g}Hz_cycle_sem_pct": round(100 * cycle / ceq, 2),
+               f"f{freq:g}Hz_between_cells_sem_pct": round(100 * between / ceq, 2),
+               f"f{freq:g}Hz_max_abs_z": round(max_z, 2)}
+    return line, figures
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("values", nargs="*", metavar="K [FREQ_HZ ...] | PACKINGS_DIR",
@@ -184,27 +213,10 @@ def main() -> None:
             together = run_case(ShakeSettings.from_config(config), case, packings, Path(scratch) / f"together_{freq:g}")
             alone = [run_case(ShakeSettings.from_config(config), case, packing, Path(scratch) / f"alone_{freq:g}_{k}")
                      for k, packing in enumerate(packings)]
-            cpu_alone = sum(r.engine["liggghts_cpu_time_s"] for r in alone)
-            cpu_together = together.engine["liggghts_cpu_time_s"]
-            z = [(cell["ceq_cell_ns_m"] - single.ceq_cell_ns_m)
-                 / math.hypot(cell["ceq_cell_sem_ns_m"], single.ceq_cell_sem_ns_m)
-                 for cell, single in zip(together.cells[1:], alone[1:])]
-            max_z = float(np.max(np.abs(z))) if z else float("nan")
-            cycle = together.ceq_cell_cycle_sem_ns_m
-            between = together.ceq_cell_between_cells_sem_ns_m
-            lines.append(f"| {freq:g} | {cpu_together:.1f} | {cpu_alone:.1f} | "
-                         f"{cpu_together / cpu_alone:.2f} | {together.ceq_cell_ns_m:.4g} | "
-                         f"{cycle:.2g} ({cycle / together.ceq_cell_ns_m:.1%}) | "
-                         f"{between:.2g} ({between / together.ceq_cell_ns_m:.1%}) | "
-                         f"{between / cycle:.2f} | {max_z:.2f} |")
+            line, found = compare_cells(freq, together, alone)
+            lines.append(line)
             print(lines[-1], flush=True)
-            figures.update({f"f{freq:g}Hz_cpu_together_s": round(cpu_together, 2),
-                            f"f{freq:g}Hz_cpu_alone_s": round(cpu_alone, 2),
-                            f"f{freq:g}Hz_cpu_ratio": round(cpu_together / cpu_alone, 3),
-                            f"f{freq:g}Hz_ceq_cell_ns_m": together["ceq_cell_ns_m"],
-                            f"f{freq:g}Hz_cycle_sem_pct": round(100 * cycle / together["ceq_cell_ns_m"], 2),
-                            f"f{freq:g}Hz_between_cells_sem_pct": round(100 * between / together["ceq_cell_ns_m"], 2),
-                            f"f{freq:g}Hz_max_abs_z": round(max_z, 2)})
+            figures.update(found)
     notes = (f"{ACCEL_G:g} g, {FILL_PCT:g} % fill, default fidelity; replicate packings "
              f"0..{cells - 1} (seeds fidelity.seed + k). CPU = LIGGGHTS process CPU time. "
              "z = (moved cell - same packing alone) / combined SEM.")
