@@ -447,7 +447,8 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
                   smoothing: float = 0.0, allow_holes: bool = False,
                   source: str = "<table>", rows: str | None = None,
                   value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
-                  kernel_theta=None, gp_observations: str = DEFAULT_GP_OBSERVATIONS) -> Surrogate:
+                  kernel_theta=None, gp_observations: str = DEFAULT_GP_OBSERVATIONS,
+                  kernel_start=None) -> Surrogate:
     """Fit a surrogate of C_eq_coupon (or of another value column) to a C_eq table.
 
     Parameters
@@ -478,6 +479,11 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
     kernel_theta : array_like, optional
         ``gp`` only: log-hyperparameters of an earlier fit; the kernel is then not optimised
         (how :func:`load_surrogate` rebuilds a saved GP exactly).
+    kernel_start : array_like, optional
+        ``gp`` only: log-hyperparameters to start the kernel's optimiser from, without restarts
+        (a cross-validation fold starts from the whole table's fit, whose optimum lies near its
+        own); by default the optimiser starts from the initial kernel and
+        :data:`pidpipe.design.gaussian_process.RESTARTS` random kernels.
     gp_observations : str
         ``gp`` only: one of :data:`GP_OBSERVATIONS` (how each case's value enters the target;
         ``"transformed"`` only to rebuild a file written before ``"linearised"``).
@@ -532,7 +538,7 @@ def fit_surrogate(table: pd.DataFrame, method: str = DEFAULT_METHOD, target: str
                   if kernel_theta is not None and NOISE_AT_COLUMN in used.columns else None)
         loads = SharedPackings.of(used) if value_column == VALUE_COLUMN else None
         model, noise_at = _fit_gp(points, values, sems, target, offset, domain, kernel_theta, stored,
-                                  gp_observations, loads)
+                                  gp_observations, loads, kernel_start)
         options["kernel_theta"] = model.theta.tolist()
         options["gp_observations"] = gp_observations
     else:
@@ -601,7 +607,8 @@ def _to_target(values: np.ndarray, sems: np.ndarray | None, target: str, offset:
 
 def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: str, offset: float,
             domain: dict, kernel_theta=None, noise_at=None,
-            observations: str = DEFAULT_GP_OBSERVATIONS, loads: SharedPackings | None = None):
+            observations: str = DEFAULT_GP_OBSERVATIONS, loads: SharedPackings | None = None,
+            kernel_start=None):
     """The GP of a surrogate and the values its noise was propagated at, shape (n,).
 
     The slope of the target transform that turns a SEM into a noise in y is taken at the GP's
@@ -629,12 +636,15 @@ def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: st
     (:func:`pidpipe.design.packing_noise.noise_covariance`), the loads scaled row by row with
     the same slope T'(a) as the SEMs, and the GP cannot average away an offset that cases of
     one fill share; without packings in common (None), the independent noise above.
+
+    ``kernel_start`` (log-hyperparameters): the first fit's optimiser starts there, without
+    restarts (:func:`fit_surrogate`).
     """
     x = _scale_u(_to_u(*points.T), domain)
     if noise_at is None:
         y, noise = _to_target(values, sems, target, offset)
         noise = _with_shared(noise, loads, values, target, offset, values)
-        first = fit_gaussian_process(x, y, noise, theta=kernel_theta)
+        first = fit_gaussian_process(x, y, noise, theta=kernel_theta, start=kernel_start)
         noise_at = _from_target(first(x), target, offset)
         start = first.theta
     else:
@@ -980,12 +990,16 @@ def load_surrogate(path: str | Path, rtol: float = 1e-8) -> Surrogate:
 # Cross-validation and choice
 
 
+#: Where a cross-validation fold's GP optimiser starts (:func:`loo_predictions`).
+FOLD_STARTS = ("table", "restarts")
+
+
 def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
                    targets: tuple[str, ...] | None = None,
                    log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                    schemes: tuple[str, ...] = ("point", "plane"), rows: str | None = None,
                    value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
-                   workers: int = 1) -> pd.DataFrame:
+                   workers: int = 1, fold_start: str = "table") -> pd.DataFrame:
     """Leave-one-out cross-validation of every (method, target) on the fitted rows.
 
     Two schemes:
@@ -999,7 +1013,9 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
         so it is the scheme that compares methods; it is pessimistic (the gap it opens is twice
         the grid spacing).
 
-    A ``gp`` is refitted in every fold, hyperparameters included.
+    A ``gp`` is refitted in every fold, hyperparameters included; by default (``fold_start``
+    ``"table"``) each fold's optimiser starts from the hyperparameters fitted to all the rows,
+    without restarts (see :func:`loo_predictions`).
 
     Parameters
     ----------
@@ -1022,6 +1038,8 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
     workers : int
         Folds fitted at once, each in a worker process (the folds are independent: the result
         does not depend on it).
+    fold_start : str
+        ``gp`` only: ``"table"`` or ``"restarts"`` (:func:`loo_predictions`).
 
     Returns
     -------
@@ -1038,7 +1056,7 @@ def cross_validate(table: pd.DataFrame, methods: tuple[str, ...] = METHODS,
     """
     with fold_workers(workers) if workers > 1 else contextlib.nullcontext() as executor:
         return _cross_validate(table, methods, targets, log_offset_fraction, schemes, rows,
-                               value_column, sem_column, executor)
+                               value_column, sem_column, executor, fold_start)
 
 
 def fold_workers(workers: int):
@@ -1051,7 +1069,7 @@ def fold_workers(workers: int):
 
 
 def _cross_validate(table, methods, targets, log_offset_fraction, schemes, rows, value_column,
-                    sem_column, executor) -> pd.DataFrame:
+                    sem_column, executor, fold_start="table") -> pd.DataFrame:
     """:func:`cross_validate`, its folds fitted in ``executor`` (None: here)."""
     rows_out = []
     has_sems = sem_column in table.columns
@@ -1066,7 +1084,7 @@ def _cross_validate(table, methods, targets, log_offset_fraction, schemes, rows,
                 points = loo_predictions(table, method, target, scheme, rows=rows,
                                          log_offset_fraction=log_offset_fraction,
                                          value_column=value_column, sem_column=sem_column,
-                                         executor=executor)
+                                         executor=executor, fold_start=fold_start)
                 if points.empty:
                     continue
                 rows_out.append(_summarise_folds(points, method, target, scheme))
@@ -1077,7 +1095,8 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
                     scheme: str = "point", rows: str | None = None,
                     log_offset_fraction: float = DEFAULT_LOG_OFFSET_FRACTION,
                     value_column: str = VALUE_COLUMN, sem_column: str = SEM_COLUMN,
-                    fit_rows: str | None = None, executor=None) -> pd.DataFrame:
+                    fit_rows: str | None = None, executor=None,
+                    fold_start: str = "table") -> pd.DataFrame:
     """Every held-out row's prediction in one cross-validation scheme (see :func:`cross_validate`).
 
     ``rows`` chooses the rows that are held out in turn; ``fit_rows`` (default: ``rows``) the
@@ -1087,6 +1106,13 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
 
     The folds are independent: an ``executor`` (:func:`fold_workers`) fits them in its worker
     processes; the result is the same.
+
+    A ``gp`` fold refits the hyperparameters. With ``fold_start="table"`` (the default) its
+    optimiser starts from those of the GP fitted to every row the folds draw on, without
+    restarts: a fold lacks one point (or one plane) of that table, and its optimum lies near the
+    whole table's. ``"restarts"`` fits each fold as :func:`fit_surrogate` fits a table, from the
+    initial kernel and :data:`pidpipe.design.gaussian_process.RESTARTS` random ones, about three
+    times the work (``benchmarks/bench_cross_validation.py`` compares the two).
 
     Returns
     -------
@@ -1111,6 +1137,15 @@ def loo_predictions(table: pd.DataFrame, method: str, target: str | None = None,
                    "log_offset_fraction": log_offset_fraction,
                    "allow_holes": scheme == "point" or method in _BRIDGING_METHODS,
                    "value_column": value_column, "sem_column": sem_column}
+    if fold_start not in FOLD_STARTS:
+        raise ValueError(f"fold_start must be one of {FOLD_STARTS}, got {fold_start!r}")
+    if method == "gp" and fold_start == "table":
+        try:
+            whole = fit_surrogate(used, **fit_options)
+        except TableError:
+            whole = None        # too little to fit: each fold then fails alike
+        if whole is not None:
+            fit_options["kernel_start"] = whole.options["kernel_theta"]
     jobs = [(fold, used.loc[~held], used.loc[held], fit_options)
             for fold, held in enumerate(_folds(used, scheme))]
     if executor is not None and len(jobs) > 1:

@@ -457,3 +457,32 @@ def test_linearised_observations_are_saved_refitted_and_old_files_reload_as_they
     assert not np.allclose(old.predict(f, g, r), surrogate.predict(f, g, r), rtol=1e-3)
     with pytest.raises(TableError, match="gp_observations"):
         fit_surrogate(table, method="gp", gp_observations="exact")
+
+
+def test_each_fold_starts_from_the_whole_tables_kernel_without_restarts(monkeypatch):
+    import pidpipe.design.surrogate as surrogate_module
+
+    table = noisy_table(6, f=(50.0, 500.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 90.0))
+    starts = []
+    real = surrogate_module.fit_gaussian_process
+
+    def recording(x, y, noise, theta=None, start=None):
+        starts.append(None if start is None else np.array(start, dtype=float))
+        return real(x, y, noise, theta=theta, start=start)
+
+    monkeypatch.setattr(surrogate_module, "fit_gaussian_process", recording)
+    restarted = loo_predictions(table, "gp", fold_start="restarts")
+    # each of the 18 folds: a first fit with restarts, a second from the first's kernel
+    assert len(starts) == 36 and all(s is None for s in starts[0::2])
+    whole = fit_surrogate(table, "gp", rows="policy", allow_holes=True)
+    starts.clear()
+    warm = loo_predictions(table, "gp")
+    # the whole table's two fits, then every fold's first fit starts from its kernel
+    assert len(starts) == 2 + 36 and starts[0] is None
+    for first in starts[2::2]:
+        np.testing.assert_array_equal(first, whole.options["kernel_theta"])
+    # the folds' predictions move by a small fraction of their own uncertainty
+    shift = np.abs(warm["predicted"] - restarted["predicted"]) / restarted["u"]
+    assert shift.max() < 0.25
+    with pytest.raises(ValueError, match="fold_start must be one of"):
+        loo_predictions(table, "gp", fold_start="never")
