@@ -134,8 +134,8 @@ class GaussianProcess:
         zeros), in the same order, so the same bits, without its checks of the input, which
         took half the time of the optimiser's many one-point calls."""
         x = np.atleast_2d(np.asarray(x, dtype=float))
-        amplitude, length_scale, weights = self._mean_terms
-        scaled = cdist(x / length_scale, self.regressor.X_train_ / length_scale, metric="euclidean")
+        amplitude, length_scale, weights, training = self._mean_terms
+        scaled = cdist(x / length_scale, training, metric="euclidean")
         k = scaled * math.sqrt(5)
         k = (1.0 + k + k**2 / 3.0) * np.exp(-k)
         mean = (np.full(k.shape, amplitude) * k) @ weights
@@ -143,11 +143,13 @@ class GaussianProcess:
         return self.mean + self.scale * mean
 
     @cached_property
-    def _mean_terms(self) -> tuple[float, np.ndarray, np.ndarray]:
-        """The fitted kernel's amplitude c and length scales, and the weights (alpha_)."""
+    def _mean_terms(self) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+        """The fitted kernel's amplitude c and length scales, the weights (alpha_), and the
+        training points divided by the length scales."""
         product = self.regressor.kernel_.k1
-        return (float(product.k1.constant_value), np.asarray(product.k2.length_scale, dtype=float),
-                self.regressor.alpha_)
+        length_scale = np.asarray(product.k2.length_scale, dtype=float)
+        return (float(product.k1.constant_value), length_scale, self.regressor.alpha_,
+                self.regressor.X_train_ / length_scale)
 
     def refit(self, y: np.ndarray, noise: np.ndarray) -> "GaussianProcess":
         """The same points and hyperparameters conditioned on new values (no optimisation)."""

@@ -219,6 +219,7 @@ class Surrogate:
     _model: object = field(default=None, repr=False)
     value_column: str = VALUE_COLUMN
     sem_column: str = SEM_COLUMN
+    _bounds: dict = field(default_factory=dict, repr=False, compare=False)
 
     def predict(self, freq_hz, accel_g, fill_pct) -> np.ndarray | float:
         """C_eq of the coupon at (f, G, r), refusing queries outside the domain.
@@ -335,22 +336,42 @@ class Surrogate:
                      fill_pct: np.ndarray) -> np.ndarray:
         """What the model takes: u for the splines, u scaled to [0, 1] by the domain for gp."""
         u = _to_u(freq_hz, accel_g, fill_pct)
-        return _scale_u(u, self.domain) if self.method == "gp" else u
+        if self.method != "gp":
+            return u
+        lo, span = self._domain_bounds()["scaling"]
+        return (u - lo) / span
+
+    def _domain_bounds(self) -> dict:
+        """What every query needs from :attr:`domain`, computed once per domain: the GP's
+        scaling (:func:`_scaling`) and each axis's accepted range with its tolerance. The
+        optimiser asks hundreds of thousands of one-point predictions, and recomputing these
+        took a third of each."""
+        key = tuple(self.domain.items())
+        if self._bounds.get("key") != key:
+            accepted = {}
+            for name in COORDINATE_COLUMNS:
+                lo, hi = self.domain[name]
+                tol = _DOMAIN_TOLERANCE * (hi - lo)
+                accepted[name] = (lo - tol, hi + tol)
+            self._bounds.clear()
+            self._bounds.update(key=key, accepted=accepted, scaling=_scaling(self.domain))
+        return self._bounds
 
     def check_domain(self, freq_hz, accel_g, fill_pct) -> None:
         """Raise :class:`DomainError` if any query value lies outside :attr:`domain`."""
+        accepted = self._domain_bounds()["accepted"]
         for name, values in zip(COORDINATE_COLUMNS, (freq_hz, accel_g, fill_pct)):
-            lo, hi = self.domain[name]
-            tol = _DOMAIN_TOLERANCE * (hi - lo)
+            low, high = accepted[name]
             values = np.asarray(values, dtype=float)
             # min and max first (one pass each, no temporaries): the optimiser asks millions
             # of in-domain points, and this check was a third of a prediction's time
-            if not values.size or (values.min() >= lo - tol and values.max() <= hi + tol):
+            if not values.size or (values.min() >= low and values.max() <= high):
                 continue
-            outside = (values < lo - tol) | (values > hi + tol)
+            outside = (values < low) | (values > high)
             if np.any(outside):
                 bad = values[outside].ravel()[0]
                 unit = _UNITS[name]
+                lo, hi = self.domain[name]
                 raise DomainError(
                     f"{name} = {bad:g} {unit} is outside the surrogate's domain "
                     f"[{lo:g}, {hi:g}] {unit}; the surrogate does not extrapolate "
@@ -414,10 +435,16 @@ def _from_target(y, target: str, offset: float) -> np.ndarray:
 
 def _scale_u(u: np.ndarray, domain: dict[str, tuple[float, float]]) -> np.ndarray:
     """u = (ln f, ln G, r) scaled to [0, 1] per axis by the domain, shape (m, 3)."""
+    lo, span = _scaling(domain)
+    return (u - lo) / span
+
+
+def _scaling(domain: dict[str, tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """The domain's lower corner in u and its span per axis (1 where the axis has one level),
+    shape (3,) each: scaled u = (u - lo) / span."""
     lo = _to_u(*(np.array([domain[name][0]]) for name in COORDINATE_COLUMNS))[0]
     hi = _to_u(*(np.array([domain[name][1]]) for name in COORDINATE_COLUMNS))[0]
-    span = np.where(hi > lo, hi - lo, 1.0)
-    return (u - lo) / span
+    return lo, np.where(hi > lo, hi - lo, 1.0)
 
 
 def _as_query_arrays(freq_hz, accel_g, fill_pct) -> tuple[np.ndarray, ...]:
@@ -431,6 +458,8 @@ def _as_query_arrays(freq_hz, accel_g, fill_pct) -> tuple[np.ndarray, ...]:
         if not np.isfinite(array).all():
             raise DomainError(f"{name} must be finite, got {value!r}")
         arrays.append(array)
+    if arrays[0].shape == arrays[1].shape == arrays[2].shape:
+        return tuple(arrays)    # nothing to broadcast (the optimiser's calls): skip its cost
     try:
         return tuple(np.broadcast_arrays(*arrays))
     except ValueError as exc:
