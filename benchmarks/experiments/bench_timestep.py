@@ -69,7 +69,7 @@ def main() -> None:
                 config["fidelity"]["measured_cycles"] = cycles_500 if freq < 1000.0 else args.cycles_1000
                 records[fraction] = run_case(ShakeSettings.from_config(config), case, packings,
                                              Path(scratch) / f"{case.case_id}_{fraction}")
-                cpu_by_fraction[fraction] += records[fraction]["engine"]["liggghts_cpu_time_s"]
+                cpu_by_fraction[fraction] += records[fraction].engine["liggghts_cpu_time_s"]
             reference = records[fractions[0]]
             for fraction, record in records.items():
                 value, sem = record.ceq_cell_ns_m, record.ceq_cell_sem_ns_m
