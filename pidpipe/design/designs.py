@@ -17,7 +17,9 @@ floor and C_eq is contact damping in persistent contacts, which depends on the c
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -90,10 +92,21 @@ def optimise_design(model: CeqModel, environment: Environment, budget: Budget, k
 
 
 def optimise_designs(model: CeqModel, environments: list[Environment], budget: Budget,
-                     search: Search = Search()) -> list[OptimisationResult]:
-    """Every design (:data:`DESIGN_KINDS`) of every environment, environment by environment."""
-    return [optimise_design(model, env, budget, kind, search)
-            for env in environments for kind in DESIGN_KINDS]
+                     search: Search = Search(), mapper: Callable = map) -> list[OptimisationResult]:
+    """Every design (:data:`DESIGN_KINDS`) of every environment, environment by environment.
+
+    ``mapper(function, items)`` runs the designs, each independent of the others: the builtin
+    ``map`` here, or a pool's ``map`` (e.g. the refinement loop's worker processes); the
+    results are the same, in the same order."""
+    tasks = [(env, kind) for env in environments for kind in DESIGN_KINDS]
+    return list(mapper(partial(_design_task, model, budget, search), tasks))
+
+
+def _design_task(model: CeqModel, budget: Budget, search: Search,
+                 task: tuple[Environment, str]) -> OptimisationResult:
+    """One (environment, kind) of :func:`optimise_designs` (a picklable task)."""
+    environment, kind = task
+    return optimise_design(model, environment, budget, kind, search)
 
 
 def restart_points(result: OptimisationResult) -> np.ndarray:

@@ -29,7 +29,8 @@ from pidpipe.refine.table import with_grid
 def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, measure: Callable,
                  verify: Callable, cost: Callable, environments: list[Environment],
                  budget: Budget, search: Search, settings: RefineSettings,
-                 flag_z: float, on_round: Callable | None = None) -> Outcome:
+                 flag_z: float, on_round: Callable | None = None,
+                 mapper: Callable = map) -> Outcome:
     """Run (or resume) the loop and write its files under ``out_dir``.
 
     Parameters
@@ -46,6 +47,8 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
         As :func:`pidpipe.refine.loop.refine`.
     on_round : callable, optional
         ``on_round(record)`` after each round, once ``rounds.csv`` has it (to print it).
+    mapper : callable
+        As :func:`pidpipe.refine.loop.refine`.
     """
     out = Path(out_dir)
     table_path, rounds_path = out / "ceq_table.csv", out / "rounds.csv"
@@ -53,7 +56,8 @@ def refine_files(grid_table: str | Path, out_dir: str | Path, fit: Callable, mea
     table = with_grid(read_table(table_path), grid) if table_path.is_file() else grid
     outcome = refine(table, fit, measure, verify, cost, environments, budget, search, settings,
                      flag_z, save=lambda t: write_table(t, table_path),
-                     on_round=lambda record: _round_done(record, rounds_path, on_round))
+                     on_round=lambda record: _round_done(record, rounds_path, on_round),
+                     mapper=mapper)
     write_table(outcome.table, table_path)
     write_summary(outcome, out / "summary.json", pd.read_csv(rounds_path))
     write_verify_points(outcome.rounds[-1].comparison, out / "verify_points.csv")

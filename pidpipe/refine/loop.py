@@ -98,7 +98,8 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
            cost: Callable[[Request], float], environments: list[Environment], budget: Budget,
            search: Search, settings: RefineSettings, flag_z: float,
            save: Callable[[pd.DataFrame], None] | None = None,
-           on_round: Callable[[RoundRecord], None] | None = None) -> Outcome:
+           on_round: Callable[[RoundRecord], None] | None = None,
+           mapper: Callable = map) -> Outcome:
     """Run the loop (see the module's text) from ``table`` until a stop.
 
     Parameters
@@ -133,6 +134,9 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
         ``save(table)`` after every change of the table (to write it atomically).
     on_round : callable, optional
         ``on_round(record)`` after each round.
+    mapper : callable
+        ``mapper(function, items)``, how a round's designs are optimised
+        (:func:`pidpipe.design.designs.optimise_designs`): the builtin ``map``, or a pool's.
     """
     table = as_stored(start_table(table))
     spheres = int(round(budget.full_cell_spheres))
@@ -141,7 +145,7 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
     while True:
         fitted = fit_table(table, round_index)
         model = fit(fitted)
-        results = optimise_designs(model, environments, budget, search)
+        results = optimise_designs(model, environments, budget, search, mapper)
         intervals = design_intervals(model, results, search.rule)
         met = {f"{i.environment}/{i.kind}": i.within(settings.interval_fraction) for i in intervals}
         points = verify_points([r for r in results if met[design_name(r)]], spheres)

@@ -204,7 +204,7 @@ def _run_loop(config: dict, grid_table, refine_dir, engine: CaseEngine, on_round
     return refine_files(grid_table, Path(refine_dir) / "state", fit, engine.measure,
                         engine.verify, engine.cost, list(settings.environments), settings.budget,
                         search_settings(settings.optimisation.as_params()), refine,
-                        settings.verify.flag_z, on_round=on_round)
+                        settings.verify.flag_z, on_round=on_round, mapper=engine.map)
 
 
 def _log_round(record) -> None:

@@ -212,6 +212,16 @@ class CaseEngine:
             self._pool = ProcessPoolExecutor(self.cores, mp_context=context)
         return self._pool
 
+    def map(self, function: Callable, items) -> list:
+        """``function`` over ``items``, in order: up to ``cores`` at a time in the worker
+        processes (``function`` and the items picklable), else here. The loop optimises a
+        round's designs so (:func:`pidpipe.design.designs.optimise_designs`), while the
+        workers would otherwise wait for the next runs."""
+        items = list(items)
+        if self.cores > 1 and len(items) > 1:
+            return list(self._workers().map(function, items))
+        return [function(item) for item in items]
+
     def close(self) -> None:
         """Stop the worker processes (a later call starts new ones)."""
         if self._pool is not None:

@@ -194,3 +194,26 @@ def test_an_extension_of_a_case_its_allocation_took_past_the_pilot_keeps_its_cyc
     assert (pilot.cells, pilot.measured_cycles) == (1, 10)
     assert set(plan.packings).isdisjoint(pilot.packings)
     assert engine.cost(request) > 60 * engine.cost(Request(1000.0, 1.0, 50.0))
+
+
+def test_a_rounds_designs_in_the_workers_are_the_designs_optimised_here(problem, tmp_path):
+    """The loop optimises a round's designs in the engine's workers (CaseEngine.map): each
+    design is the one optimised here, bit for bit, in the same order."""
+    from pidpipe.design.designs import Search, optimise_designs
+    from pidpipe.design.optimisation import Budget, Environment
+    from pidpipe.design.surrogate import fit_surrogate
+
+    _, grid_path, _ = problem
+    model = fit_surrogate(pd.read_csv(grid_path), method="gp", allow_holes=True)
+    environments = [Environment("a", (600.0, 700.0), (6.0, 8.0)),
+                    Environment("b", (800.0, 900.0), (5.0, 7.0))]
+    budget, search = Budget(2000, 21, 441), Search(starts=3, seed=1)
+    here = optimise_designs(model, environments, budget, search)
+    with CaseEngine.from_config(load_config(problem[0]), tmp_path / "work", cores=2) as engine:
+        there = optimise_designs(model, environments, budget, search, engine.map)
+        assert engine._pool is not None                  # the workers ran them
+    assert [(r.environment.name, r.kind) for r in there] == [(r.environment.name, r.kind) for r in here]
+    for a, b in zip(here, there):
+        assert (a.design.fill_pct, a.design.n_cells, a.design.total_ceq_ns_m) == \
+            (b.design.fill_pct, b.design.n_cells, b.design.total_ceq_ns_m)
+        assert a.band.mean_total_ceq_ns_m == b.band.mean_total_ceq_ns_m
