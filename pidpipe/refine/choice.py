@@ -117,7 +117,9 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
     fitted : pandas.DataFrame
         The table the round fitted (:func:`pidpipe.refine.table.fit_table`).
     fit : callable
-        ``fit(table) -> model``, the surrogate factory.
+        ``fit(table, start=None) -> model``, the surrogate factory; ``start``, a model of a
+        table that differs by a few rows, may start its fit (the fantasies' refits, each from
+        the model before it).
     model
         ``fit(fitted)``, already made.
     results : list of OptimisationResult
@@ -170,7 +172,7 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
     for case in cases:                                   # the verify-driven ones as fantasies
         table = _with_fantasy(table, case, model, relative_sem)
     if cases and candidates:
-        model = fit(table)
+        model = fit(table, start=model)
     while len(cases) < cases_per_round and candidates:
         gains = _gains(candidates, model, by_name, open_designs, relative_sem, interval_fraction,
                        table)
@@ -190,7 +192,7 @@ def choose(fitted: pd.DataFrame, fit: Callable, model, results: list,
         candidates = [c for c in candidates if c.key != pick.key]
         if len(cases) < cases_per_round and candidates:
             table = _with_fantasy(table, pick, model, relative_sem)
-            model = fit(table)
+            model = fit(table, start=model)
     return Choice(tuple(cases), tuple(reverify))
 
 

@@ -107,7 +107,9 @@ def refine(table: pd.DataFrame, fit: Callable, measure: Callable, verify: Callab
     table : pandas.DataFrame
         The grid's C_eq table (rows of ``results/ceq_table.csv``), or a table the loop saved.
     fit : callable
-        ``fit(table) -> model``; the model has ``domain``, ``predict(f, G, r)`` and
+        ``fit(table, start=None) -> model`` (``start``: a model of a table a few rows apart,
+        which may start the fit; the choice's fantasies pass it); the model has ``domain``,
+        ``predict(f, G, r)`` and
         ``predict_with_uncertainty(f, G, r) -> (mean, std)`` (coupon C_eq, N*s/m; arrays of
         the inputs' shape; std the latent function's, without the noise), optionally
         ``predict_joint(f, G, r) -> (mean, covariance)``; it fits the rows the project's fit

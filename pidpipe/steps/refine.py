@@ -198,8 +198,10 @@ def _run_loop(config: dict, grid_table, refine_dir, engine: CaseEngine, on_round
     if not settings.environments:
         raise PidpipeError("no environments to design for (config key environments)")
 
-    def fit(table: pd.DataFrame):
-        return fit_surrogate(table, method="gp", allow_holes=True, source=str(grid_table))
+    def fit(table: pd.DataFrame, start=None):
+        # a fantasy's refit starts from the model before it (a few rows apart), without restarts
+        return fit_surrogate(table, method="gp", allow_holes=True, source=str(grid_table),
+                             kernel_start=None if start is None else start.options["kernel_theta"])
 
     return refine_files(grid_table, Path(refine_dir) / "state", fit, engine.measure,
                         engine.verify, engine.cost, list(settings.environments), settings.budget,

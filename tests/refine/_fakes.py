@@ -105,7 +105,7 @@ class GPSurrogate:
     """A Gaussian process of C_eq on (f, G, r) scaled to [0, 1] by the table's bounding box, the
     rows' SEMs as their noise; ``predict_with_uncertainty`` returns the latent mean and std."""
 
-    def __init__(self, table: pd.DataFrame):
+    def __init__(self, table: pd.DataFrame, start=None):
         table = table[table["status"] == "ok"]          # as pidpipe's fits: only usable rows
         x = table[["freq_hz", "accel_g", "fill_pct"]].to_numpy(dtype=float)
         y = table["ceq_coupon_ns_m"].to_numpy(dtype=float)

@@ -60,7 +60,7 @@ def _choose(round_inputs, fitted=None, cases=3, cost=FakeEngine.cost, failing=No
     model, results, intervals, table, names = round_inputs
     failing = pd.DataFrame(columns=["case_key", "design", "point", "z", "freq_hz", "accel_g",
                                     "fill_pct", "runs"]) if failing is None else failing
-    return choose(table if fitted is None else fitted, lambda t: model, model, results,
+    return choose(table if fitted is None else fitted, lambda t, start=None: model, model, results,
                   intervals, names, failing, cost, cases, 0.10, int(BUDGET.full_cell_spheres))
 
 
