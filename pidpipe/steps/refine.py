@@ -119,6 +119,10 @@ def refine_step(config: dict, grid_table: str | Path, refine_dir: str | Path,
         step = {"status": STEP_DONE, "stopped_by": outcome.stopped_by, "open": outcome.open}
         if in_step:
             step["runs_in_step"] = list(engine.runs)
+            spent = engine.measured
+            logger.info("refine: the step ran %d case(s); measured: shaking %.1f CPU-s, pours "
+                        "%.1f CPU-s (%.1f s wall, summed over the workers)", len(engine.runs),
+                        spent["shake_cpu_s"], spent["pour_cpu_s"], spent["pour_wall_s"])
         logger.info("refine: stopped: %s", outcome.stopped_by)
         for line in outcome.open:
             logger.info("refine: open: %s", line)

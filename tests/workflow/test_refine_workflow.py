@@ -201,6 +201,7 @@ def test_one_step_that_runs_the_cases_itself_gives_the_same_table(campaign, camp
     pd.testing.assert_frame_equal(_loop_table(campaign_in_step), _loop_table(campaign))
     log = (campaign_in_step / "logs" / "refine" / "step1.log").read_text()
     assert log.count("refine: shook ") == len(asked)
+    assert f"refine: the step ran {len(asked)} case(s); measured: shaking " in log
 
 
 def test_a_step_killed_while_running_cases_reruns_only_the_missing_one(campaign_in_step):
