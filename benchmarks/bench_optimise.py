@@ -22,7 +22,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from harness import REPO, measured, record
+from harness import REPO, export_package, measured, record
 
 FILES = ("optimum.csv", "history.csv", "optimum.json", "bootstrap.csv")
 
@@ -89,11 +89,7 @@ def main() -> None:
     load = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_optimise_") as scratch:
         scratch = Path(scratch)
-        old = scratch / "base"
-        old.mkdir()
-        archive = subprocess.run(["git", "archive", args.base, "pidpipe", "workflow/schemas"],
-                                 cwd=REPO, check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        old = export_package(args.base, scratch / "base")
         times = {"base": [], "this": []}
         for _ in range(args.repeats):
             times["base"].append(run(campaign, scratch / "out_base", str(old)))

@@ -28,7 +28,7 @@ import tempfile
 from pathlib import Path
 
 import pandas as pd
-from harness import REPO, measured, record
+from harness import REPO, export_package, measured, record
 
 #: The loop's files compared (in its state folder).
 FILES = ("ceq_table.csv", "rounds.csv", "summary.json", "verify_points.csv")
@@ -93,11 +93,7 @@ def main() -> None:
     load = os.getloadavg()
     with tempfile.TemporaryDirectory(prefix="bench_refine_replay_") as scratch:
         scratch = Path(scratch)
-        old = scratch / "base"
-        old.mkdir()
-        archive = subprocess.run(["git", "archive", args.base, "pidpipe", "workflow/schemas"],
-                                 cwd=REPO, check=True, capture_output=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        old = export_package(args.base, scratch / "base")
         times = {"base": [], "this": []}
         for _ in range(args.repeats):
             times["base"].append(run(campaign, scratch / "base_run", str(old), args.cores, scratch))

@@ -125,6 +125,19 @@ def scratch_workflow(work: Path, config: Path | str | Mapping | None = None,
     return data
 
 
+def export_package(revision: str, folder: Path) -> Path:
+    """The package of an older commit (``pidpipe`` and ``workflow/schemas``, exported by ``git
+    archive``) in ``folder`` (created), to put first on ``PYTHONPATH``; returns ``folder``."""
+    import subprocess
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    archive = subprocess.run(["git", "archive", revision, "pidpipe", "workflow/schemas"],
+                             cwd=REPO, check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
+    return folder
+
+
 # --- child-process CPU -------------------------------------------------------------------------
 
 def children_cpu_s() -> float:
