@@ -74,7 +74,7 @@ freedom, cells the record's ``n_cells_measured`` (its target's cells, else its r
 known. Then t has nu = (SEM_dem^2 + u_s^2)^2 / (SEM_dem^4 / dem_dof) degrees of freedom
 (Welch-Satterthwaite), and z_combined is the standard normal score of the same two-sided tail
 probability under Student's t of nu degrees of freedom
-(:func:`pidpipe.refine.verification.normal_score`; z = t when nu is infinite), so ``flag_z``
+(:func:`pidpipe.measurement.agreement.normal_score`; z = t when nu is infinite), so ``flag_z``
 keeps its meaning, a tail probability, whatever the cells: a case that ends at a 7-cell pilot
 (6 degrees of freedom, u_s small beside its SEM) passes up to |t| = 2.52 at ``flag_z`` = 2,
 where judged as normal it would fail a calibrated surrogate at twice the rate the flag means.
@@ -449,7 +449,7 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
     PidpipeError
         A case of the plan has no record, or a record is of another case.
     """
-    from pidpipe.refine.verification import normal_score     # scipy.stats: not at the plan's import
+    from pidpipe.measurement.agreement import normal_score   # scipy.stats: not at the plan's import
 
     missing = [c for c in unique_case_ids(points) if c not in records]
     if missing:

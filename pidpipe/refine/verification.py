@@ -34,10 +34,10 @@ import math
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from pidpipe.design.ceq_table import SEM_COLUMN, VALUE_COLUMN
 from pidpipe.design.records import combine_replicates
+from pidpipe.measurement.agreement import normal_score
 from pidpipe.refine.predict import predict_or_nan
 
 #: Columns of :func:`pooled`.
@@ -62,21 +62,6 @@ def pooled(rows: pd.DataFrame) -> pd.DataFrame:
         out.append({"case_key": key, "dem_ns_m": value, "dem_sem_ns_m": sem, "dem_dof": dof,
                     "runs": len(part)})
     return pd.DataFrame(out, columns=list(POOLED_COLUMNS))
-
-
-def normal_score(t, dem_sem, dem_dof, surrogate_std) -> np.ndarray:
-    """z of t (see the module's text): the normal score of equal tail probability under
-    Student's t of the Welch-Satterthwaite degrees of freedom; shape of the inputs."""
-    t, dem_sem, dem_dof, surrogate_std = np.broadcast_arrays(
-        *(np.asarray(a, dtype=float) for a in (t, dem_sem, dem_dof, surrogate_std)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        nu = (dem_sem**2 + surrogate_std**2) ** 2 / (dem_sem**4 / dem_dof)
-    finite = np.isfinite(t) & np.isfinite(nu) & (nu > 0)
-    z = np.array(t, dtype=float, copy=True)
-    if finite.any():
-        tail = stats.t.sf(np.abs(t[finite]), nu[finite])
-        z[finite] = np.sign(t[finite]) * stats.norm.isf(tail)
-    return z
 
 
 def compare(points: pd.DataFrame, verify_rows: pd.DataFrame, model, flag_z: float) -> pd.DataFrame:

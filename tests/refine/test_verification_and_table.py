@@ -7,7 +7,8 @@ from scipy import stats
 
 from pidpipe.errors import DomainError
 from pidpipe.refine.table import case_key, fit_table, start_table, verify_rows
-from pidpipe.refine.verification import compare, normal_score, pooled
+from pidpipe.measurement.agreement import normal_score
+from pidpipe.refine.verification import compare, pooled
 from tests._surrogates import FakeSurrogate, constant
 
 
