@@ -84,4 +84,9 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ "$lock" -nt "$stamp
     step .venv/bin/python -m pip install -q -c "$lock" -e '.[test]'
     touch "$stamp"
 fi
+# Numba compiles the DEM's kernels on first use (about 50 CPU seconds) and caches them; compile
+# them now, once, so that neither a campaign's first jobs nor the tests each pay it. With the
+# cache already filled this loads it (about a second).
+echo "install.sh: compiling the DEM's kernels (once; about a minute on a fresh checkout) ..."
+step .venv/bin/python -m pidpipe.dem.compile_ahead
 echo "install.sh: ready: $(command -v liggghts || echo "${PIDPIPE_LIGGGHTS:-}"), .venv"
