@@ -24,6 +24,7 @@ rule optimise_environments:
     benchmark:
         "results/benchmarks/optimise_environments.tsv"
     threads: 2  # the bootstrap's draws in two processes: the stage the campaign's end waits for
+    priority: 2  # before the surrogate's figures, which nothing waits for
     script:
         "../scripts/optimise_environments.py"
 

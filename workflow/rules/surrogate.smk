@@ -13,6 +13,7 @@ rule fit_surrogate:
         allow_holes=get_surrogate_allow_holes(),
     log:
         "logs/fit_surrogate.log",
+    priority: 3  # first of the designs' path: fit, cross-validate, optimise, then the figures
     script:
         "../scripts/fit_surrogate.py"
 
@@ -44,6 +45,7 @@ rule cross_validate_surrogate:
     benchmark:
         "results/benchmarks/cross_validate_surrogate.tsv"
     threads: 2  # the folds in two processes (a GP refitted per fold: a minute on one core)
+    priority: 2  # before the surrogate's figures: the designs wait for it
     script:
         "../scripts/cross_validate_surrogate.py"
 
