@@ -7,7 +7,7 @@ correlated (:mod:`pidpipe.design.packing_noise`). This refits the campaign's fit
 (``results/ceq_table_refined.csv`` after the loop, else ``results/ceq_table.csv``) with the GP
 both ways and compares each with the DEM verify's values (``results/verify.csv``: DEM cases to
 a 5 % standard error on packings of their own, ``benchmarks/verify_dem_5pct.yaml``), with the
-z verify computes (:func:`pidpipe.loop.verify.z_combined`); the surrogate is read at the
+t verify computes (:func:`pidpipe.loop.verify.t_combined`); the surrogate is read at the
 design's (mean) fill, and, third, at the whole-sphere fill the DEM case poured, as verify reads
 it. A table written before rows carried
 ``packing_loads`` gets them from the cases' records (:func:`pidpipe.design.records.record_loads`).
@@ -32,7 +32,7 @@ import pandas as pd  # noqa: E402
 from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings, pair_correlations  # noqa: E402
 from pidpipe.design.records import read_record, replicates_loads  # noqa: E402
 from pidpipe.design.surrogate import fit_surrogate  # noqa: E402
-from pidpipe.loop.verify import surrogate_uncertainty, z_combined  # noqa: E402
+from pidpipe.loop.verify import surrogate_uncertainty, t_combined  # noqa: E402
 
 RECORD_FOLDERS = (Path("results/cases"), Path("results/refine/work/cases"))
 
@@ -74,7 +74,7 @@ def main() -> None:
                               ("packings' covariance, read at the poured fill", table, points)):
         surrogate = fit_surrogate(fitted, method="gp", allow_holes=True, source=name)
         predicted = surrogate_uncertainty(surrogate, at, draws=0, seed=0)
-        z[model] = z_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),
+        z[model] = t_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),
                               points["ceq_coupon_dem_sem_ns_m"].to_numpy(dtype=float),
                               predicted["ceq_coupon_surrogate_ns_m"].to_numpy(dtype=float),
                               predicted["surrogate_u_ns_m"].to_numpy(dtype=float))

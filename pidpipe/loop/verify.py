@@ -299,7 +299,7 @@ def _surrogate_query(surrogate, points: pd.DataFrame):
     return freq, accel, held, notes
 
 
-def z_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
+def t_combined(dem: np.ndarray, dem_sem: np.ndarray, surrogate: np.ndarray,
                surrogate_u: np.ndarray) -> np.ndarray:
     """t = (C_dem - C_s) / sqrt(SEM_dem^2 + u_s^2), shape of the inputs; NaN where the combined
     uncertainty is not a positive number (:func:`compare` judges it by its degrees of freedom)."""
@@ -472,7 +472,7 @@ def compare(points: pd.DataFrame, records: dict[str, CaseRecord], predictions: p
              "ceq_coupon_dem_sem_ns_m", "ceq_coupon_surrogate_ns_m", "surrogate_u_ns_m"),
             ("t_m_eff", "z_m_eff", "m_eff_off", "m_eff_dem_kg", "m_eff_dem_sem_kg",
              "m_eff_surrogate_kg", "m_eff_surrogate_u_kg")):
-        table[t] = z_combined(table[value], table[sem], table[surrogate], table[surrogate_u])
+        table[t] = t_combined(table[value], table[sem], table[surrogate], table[surrogate_u])
         table[z] = normal_score(table[t], table[sem], table["dem_dof"], table[surrogate_u])
         table[off] = is_off(table[z], flag_z)
     notes = []

@@ -24,7 +24,7 @@ from pidpipe.loop.verify import (
     stale_records,
     surrogate_uncertainty,
     unique_case_ids,
-    z_combined,
+    t_combined,
 )
 
 
@@ -106,11 +106,11 @@ def test_results_without_band_mean_or_peak_have_nothing_to_verify():
         plan_points([design("A", "worst_case", 40.0)], 21)
 
 
-def test_z_is_the_difference_over_the_combined_standard_uncertainty():
-    z = z_combined([10.0, 10.0, 5.0], [3.0, 0.0, 0.0], [6.0, 10.0, 5.0], [4.0, 1.0, 0.0])
-    assert z[0] == pytest.approx(4.0 / 5.0)
-    assert z[1] == 0.0
-    assert np.isnan(z[2])                                        # nothing to divide by
+def test_t_is_the_difference_over_the_combined_standard_uncertainty():
+    t = t_combined([10.0, 10.0, 5.0], [3.0, 0.0, 0.0], [6.0, 10.0, 5.0], [4.0, 1.0, 0.0])
+    assert t[0] == pytest.approx(4.0 / 5.0)
+    assert t[1] == 0.0
+    assert np.isnan(t[2])                                        # nothing to divide by
     assert list(is_off([2.5, -2.01, 1.99, np.nan], 2.0)) == [True, True, False, False]
 
 
