@@ -40,6 +40,7 @@ Two things the next run needs to know, and how the pipeline handles them:
 
 from __future__ import annotations
 
+import base64
 import csv
 import json
 import math
@@ -97,6 +98,30 @@ def _copy(source: Path, target: Path) -> Path:
 def _records(workdir: Path) -> dict[str, Path]:
     """Case id -> record file, for every results/cases/*.json."""
     return {path.stem: path for path in (workdir / "results" / "cases").glob("*.json")}
+
+
+def _marked_incomplete(workdir: Path) -> set[str]:
+    """The outputs that Snakemake's bookkeeping holds incomplete: one file each in
+    .snakemake/incomplete, named by the output's path in URL-safe base64 (a long name split
+    into '@'-prefixed folders). A job's marker goes when Snakemake post-processes it."""
+    root = workdir / ".snakemake" / "incomplete"
+    if not root.is_dir():
+        return set()
+    return {base64.urlsafe_b64decode("".join(part.lstrip("@") for part in
+                                             path.relative_to(root).parts)).decode()
+            for path in root.rglob("*") if path.is_file() and path.name != "migration_underway"}
+
+
+def _completed_cases(workdir: Path) -> set[str]:
+    """The cases whose job Snakemake has post-processed: a record, and no incomplete marker.
+
+    Snakemake post-processes a finished job (its marker removed) before it prints "Finished
+    jobid" (snakemake.scheduling.job_scheduler, _finish_jobs), so a signal between the two
+    leaves a case completed that its output never calls finished; the resume rightly skips it.
+    """
+    incomplete = _marked_incomplete(workdir)
+    return {case_id for case_id in _records(workdir)
+            if not any(key.endswith(f"results/cases/{case_id}.json") for key in incomplete)}
 
 
 def _processes_in(folder: Path) -> list[psutil.Process]:
@@ -328,6 +353,10 @@ def test_interrupted_campaign_resumes_with_only_the_unfinished_cases(poured, ref
     assert finished_then <= finished
     records = _records(workdir)
     assert finished <= set(records) <= CASES
+    # what the resume must skip: the cases Snakemake completed, those its output called
+    # finished and any it completed just before the signal cut its "Finished" line
+    completed = _completed_cases(workdir)
+    assert finished <= completed, (finished - completed, _tail(output))
     for case_id, path in records.items():
         record = read_record(path)  # a CaseRecord (a JSON object with case_id and status), or ParseError
         assert record.case_id == case_id
@@ -363,8 +392,8 @@ def test_interrupted_campaign_resumes_with_only_the_unfinished_cases(poured, ref
     resume_s = time.perf_counter() - resume_started
     assert resumed.returncode == 0, resumed.stdout[-5000:]
     redone = set(_case_jobs(resumed.stdout).values())
-    assert redone == CASES - finished, resumed.stdout[-5000:]
-    assert planned_jobs(resumed.stdout)["simulate_case"] == len(CASES) - len(finished)
+    assert redone == CASES - completed, resumed.stdout[-5000:]
+    assert planned_jobs(resumed.stdout)["simulate_case"] == len(CASES) - len(completed)
     assert _snapshot(kept) == before  # the finished records were not rewritten
     assert set(_records(workdir)) == CASES and decoy.is_file()
     for case_id, path in _records(workdir).items():
