@@ -8,9 +8,9 @@ cores) would each pay it at once. ``install.sh`` runs this module instead, once,
 the rest, so that a campaign or a test run starts from compiled kernels
 (``benchmarks/bench_campaign.py`` records the campaign's wall either way).
 
-It takes one step of one cell of the default config's pour, through the same calls the pours and
-the shaking runs make (:func:`pidpipe.dem.run.start`, then :func:`pidpipe.dem.run.advance`),
-so the kernel's two entry points are compiled for the argument types the campaign passes.
+It pours one packing of the default config (:func:`pidpipe.dem.pour.pour`, 5 spheres at 25 %),
+which calls both of the kernel's entry points as the pours and the shaking runs do, so they are
+compiled for the argument types the campaign passes.
 The host-coupled kernels (:mod:`pidpipe.dem.coupled`, used by ``snakemake host`` and the
 panel's check only) are left to compile on their first use.
 
@@ -32,16 +32,11 @@ def compile_kernels() -> tuple[float, float]:
         Numba could not compile the kernel (the message names the fix).
     """
     cpu, wall = time.process_time(), time.perf_counter()
-    from pidpipe.cell.pour_protocol import plan_pour
     from pidpipe.config import load_config
     from pidpipe.config.settings import PourSettings
-    from pidpipe.dem.pour import pour_scenes
-    from pidpipe.dem.run import advance, start
+    from pidpipe.dem.pour import pour
 
-    plan = plan_pour(PourSettings.from_config(load_config()), fill_pct=25.0, replicate=0)
-    still, _, shift = pour_scenes(plan)
-    scene, state, workspace = start(still, plan.start_m[None] + shift)
-    advance(scene, state, workspace, 1)
+    pour(PourSettings.from_config(load_config()), fill_pct=25.0, replicate=0)
     return time.process_time() - cpu, time.perf_counter() - wall
 
 

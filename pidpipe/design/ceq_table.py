@@ -188,7 +188,7 @@ def _to_float(values: pd.Series, column: str, source: str) -> pd.Series:
     """Convert a column to float64; empty cells become NaN, text is refused."""
     if pd.api.types.is_numeric_dtype(values):
         # already numbers (a table validated before, refitted in a fold or a fantasy): no text
-        # to look for, and the string scan below would cost more than the fit it precedes
+        # to look for, so the string scan below is skipped
         return values.astype("float64")
     numbers = pd.to_numeric(values, errors="coerce").astype("float64")
     text = values.astype("string").str.strip()
