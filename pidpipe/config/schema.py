@@ -11,6 +11,7 @@ allowed.
 from __future__ import annotations
 
 import copy
+import functools
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -43,9 +44,29 @@ _EXPONENT_NUMBER = re.compile(r"^[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
 
 
 def load_schema() -> dict:
-    """The configuration's JSON schema as a dict."""
+    """The configuration's JSON schema as a dict (a copy: changing it changes no validation)."""
+    return copy.deepcopy(_parsed_schema())
+
+
+@functools.lru_cache(maxsize=1)
+def _parsed_schema() -> dict:
+    """The schema file, parsed once per process (libyaml's parser where PyYAML has it).
+
+    Snakemake validates the config about a dozen times while it reads the Snakefile (once per
+    variant of a fidelity study, for one); parsing the schema each time in pure Python cost
+    several CPU-seconds per ``snakemake`` command. Never changed: it is only read.
+    """
+    loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
     with open(SCHEMA_PATH, encoding="utf-8") as handle:
-        return yaml.safe_load(handle)
+        return yaml.load(handle, Loader=loader)  # noqa: S506 (a safe loader)
+
+
+@functools.lru_cache(maxsize=1)
+def _schema_validator():
+    """The validator of :func:`_parsed_schema` that fills defaults, built once per process."""
+    import jsonschema   # here, not at the top: a case job reads validated config only
+
+    return _with_defaults(jsonschema.Draft202012Validator)(_parsed_schema())
 
 
 def load_config(path: str | Path = DEFAULT_CONFIG_PATH) -> dict:
@@ -82,12 +103,10 @@ def validate_config(raw: Any) -> dict:
     """
     if not isinstance(raw, dict):
         raise ConfigError(f"the config must be a mapping of keys to values, got {type(raw).__name__}")
-    import jsonschema   # here, not at the top: a case job reads validated config only
+    import jsonschema
 
     config = _read_exponent_numbers(copy.deepcopy(_plain(raw)))
-    schema = load_schema()
-    validator_class = _with_defaults(jsonschema.Draft202012Validator)
-    errors = list(validator_class(schema).iter_errors(config))
+    errors = list(_schema_validator().iter_errors(config))
     if errors:
         raise ConfigError(_describe_schema_error(jsonschema.exceptions.best_match(errors)))
     _check_semantics(config)

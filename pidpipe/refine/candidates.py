@@ -25,15 +25,18 @@ point is compared with what the surrogate says the poured cell gives.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from pidpipe.design.ceq_table import SEM_COLUMN
-from pidpipe.design.optimisation import OptimisationResult
 from pidpipe.config.derived import poured_fill
 from pidpipe.loop.verify import band_points
 from pidpipe.refine.table import KEY_DECIMALS, case_key
+
+if TYPE_CHECKING:  # only named in annotations: the Snakefile imports this module, not SciPy
+    from pidpipe.design.optimisation import OptimisationResult
 
 #: Effort (cells x cycles) after an extension over the effort before: 4 halves the SEM.
 EXTEND_FACTOR = 4.0
