@@ -13,12 +13,23 @@ import shutil
 import pytest
 
 from pidpipe.config import load_config
+from tests._workers import GroupScheduling, longest_groups_first
 
 MISSING_ENGINE = ("LIGGGHTS is not installed: apt-get install -y --no-install-recommends liggghts "
                   "(the README's test command installs it)")
 
 
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Under pytest-xdist's ``--dist loadscope`` (pyproject.toml's addopts), the suite's own
+    scopes: files that share a costly fixture run in one worker (:mod:`tests._workers`)."""
+    if config.getvalue("dist") == "loadscope":
+        return GroupScheduling(config, log)
+    return None
+
+
 def pytest_collection_modifyitems(config, items):
+    longest_groups_first(items)
     if shutil.which("liggghts") or os.environ.get("PIDPIPE_LIGGGHTS"):
         return
     for item in items:
