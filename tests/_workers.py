@@ -21,8 +21,8 @@ SHARED_FIXTURE_GROUPS = {
 }
 
 #: Groups handed out first, longest first; the others follow in the order pytest collects them.
-#: The order comes from a serial run's ``pytest -n 0 --durations=0``: each of these took 1.5 to
-#: 4.5 minutes, the next file under a minute.
+#: The order comes from a serial run's ``pytest -n 0 --durations=0``: each of these took 1.2 to
+#: 4.6 minutes, the next file (tests/design/test_bootstrap.py) about one.
 LONGEST_GROUPS_FIRST = (
     "dem-campaigns",
     "tests/workflow/test_workflow.py",
