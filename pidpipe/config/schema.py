@@ -103,11 +103,11 @@ def validate_config(raw: Any) -> dict:
     """
     if not isinstance(raw, dict):
         raise ConfigError(f"the config must be a mapping of keys to values, got {type(raw).__name__}")
-    import jsonschema
-
     config = _read_exponent_numbers(copy.deepcopy(_plain(raw)))
     errors = list(_schema_validator().iter_errors(config))
     if errors:
+        import jsonschema
+
         raise ConfigError(_describe_schema_error(jsonschema.exceptions.best_match(errors)))
     _check_semantics(config)
     return config
