@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
 
 from pidpipe.design.built_cells import at_each_fill, cells_total, whole_sphere_cells
 from pidpipe.design.optimisation import (
@@ -273,6 +272,7 @@ def band_starting_fills(bounds: dict, budget: Budget, n_starts: int, seed: int) 
     r_lo, r_hi = feasible_fill_range(bounds, budget)
     if n_starts == 0:
         return np.empty(0)
+    from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
     sample = qmc.LatinHypercube(d=1, rng=np.random.default_rng(seed)).random(n_starts)[:, 0]
     return r_lo + sample * (r_hi - r_lo)
 

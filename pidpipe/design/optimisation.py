@@ -44,7 +44,6 @@ from typing import Protocol
 
 import numpy as np
 from scipy.optimize import minimize
-from scipy.stats import qmc
 
 # The budget and the environment are the config's own types (one definition each).
 from pidpipe.config.settings import Budget, Environment  # noqa: F401
@@ -371,6 +370,7 @@ def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_st
     r_lo, r_hi = feasible_fill_range(bounds, budget)
     if n_starts == 0:
         return np.empty((0, len(VARIABLES)))
+    from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
     sample = qmc.LatinHypercube(d=3, rng=np.random.default_rng(seed)).random(n_starts)
     f_lo, f_hi = np.log(bounds["freq_hz"][0]), np.log(bounds["freq_hz"][1])
     g_lo, g_hi = bounds["accel_g"]

@@ -122,8 +122,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy.interpolate import RBFInterpolator, make_interp_spline
-
-from scipy.stats import norm
+from scipy.special import ndtr, ndtri  # the normal's cdf and quantile: scipy.stats costs a job ~1.7 CPU-s to import
 
 from pidpipe.design.ceq_table import (
     COORDINATE_COLUMNS,
@@ -133,7 +132,6 @@ from pidpipe.design.ceq_table import (
     validate_ceq_table,
 )
 from pidpipe.design.fit_policy import split_for_fit
-from pidpipe.design.gaussian_process import fit_gaussian_process
 from pidpipe.design.packing_noise import LOADS_COLUMN, SharedPackings
 from pidpipe.errors import DomainError, TableError
 
@@ -169,7 +167,7 @@ GP_OBSERVATIONS: tuple[str, ...] = ("linearised", "transformed")
 #: What a new gp fit uses.
 DEFAULT_GP_OBSERVATIONS = "linearised"
 #: Probability inside +-1 standard deviation of a normal distribution.
-ONE_SIGMA = float(norm.cdf(1.0) - norm.cdf(-1.0))
+ONE_SIGMA = float(ndtr(1.0) - ndtr(-1.0))
 _DOMAIN_TOLERANCE = 1e-9
 _FILE_FORMAT = "pidpipe-surrogate"
 _FILE_VERSION = 2
@@ -312,7 +310,7 @@ class Surrogate:
         if not 0.0 < level < 1.0:
             raise ValueError(f"level must be in (0, 1), got {level!r}")
         mu, sd = self._predict_transformed(freq_hz, accel_g, fill_pct, include_scatter)
-        k = float(norm.ppf(0.5 + 0.5 * level))
+        k = float(ndtri(0.5 + 0.5 * level))
         lower, upper = (_from_target(mu - k * sd, self.target, self.offset_ns_m),
                         _from_target(mu + k * sd, self.target, self.offset_ns_m))
         if clip and self.nonnegative:
@@ -669,6 +667,8 @@ def _fit_gp(points: np.ndarray, values: np.ndarray, sems: np.ndarray, target: st
     ``kernel_start`` (log-hyperparameters): the first fit's optimiser starts there, without
     restarts (:func:`fit_surrogate`).
     """
+    from pidpipe.design.gaussian_process import fit_gaussian_process  # scikit-learn: only a gp
+
     x = _scale_u(_to_u(*points.T), domain)
     if noise_at is None:
         y, noise = _to_target(values, sems, target, offset)
@@ -1217,7 +1217,7 @@ def _fold_predictions(job) -> pd.DataFrame | None:
                               at=frame["predicted"].to_numpy())
         frame["z"] = (y - mu) / np.sqrt(sd**2 + noise)
         frame["in_68"] = np.abs(frame["z"]) <= 1.0
-        frame["in_95"] = np.abs(frame["z"]) <= float(norm.ppf(0.975))
+        frame["in_95"] = np.abs(frame["z"]) <= float(ndtri(0.975))
     return frame
 
 

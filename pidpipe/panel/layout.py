@@ -40,7 +40,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize
-from scipy.stats import qmc
 
 from pidpipe.design.built_cells import split_spheres
 from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
@@ -237,6 +236,7 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
     x0s = [problem.pack(problem.antinode_first(r), np.full(problem.k, r), 1.0)
            for r in (mid, *(float(np.clip(f, problem.r_lo, problem.r_hi)) for f in antinode_fills))]
     if starts:
+        from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
         sample = qmc.LatinHypercube(d=2 * problem.k, rng=np.random.default_rng(seed)).random(starts)
         for row in sample:
             x, rho = row[:problem.k], row[problem.k:]

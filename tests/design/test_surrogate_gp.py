@@ -473,17 +473,17 @@ def test_linearised_observations_are_saved_refitted_and_old_files_reload_as_they
 
 
 def test_each_fold_starts_from_the_whole_tables_kernel_without_restarts(monkeypatch):
-    import pidpipe.design.surrogate as surrogate_module
+    import pidpipe.design.gaussian_process as gp_module  # the surrogate imports it per fit
 
     table = noisy_table(6, f=(50.0, 500.0, 1000.0), g=(1.0, 5.0, 10.0), r=(25.0, 90.0))
     starts = []
-    real = surrogate_module.fit_gaussian_process
+    real = gp_module.fit_gaussian_process
 
     def recording(x, y, noise, theta=None, start=None):
         starts.append(None if start is None else np.array(start, dtype=float))
         return real(x, y, noise, theta=theta, start=start)
 
-    monkeypatch.setattr(surrogate_module, "fit_gaussian_process", recording)
+    monkeypatch.setattr(gp_module, "fit_gaussian_process", recording)
     restarted = loo_predictions(table, "gp", fold_start="restarts")
     # each of the 18 folds: a first fit with restarts, a second from the first's kernel
     assert len(starts) == 36 and all(s is None for s in starts[0::2])
