@@ -9,6 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from matplotlib import rcParams
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 CEQ_LABEL = r"$C_\mathrm{eq}$ (N·s/m)"
@@ -29,12 +31,26 @@ GRID_POINTS = 80
 
 
 def save_figure(figure: Figure, stem: str | Path) -> list[Path]:
-    """Save ``figure`` as ``<stem>.png`` (150 dpi) and ``<stem>.pdf``; return the two paths."""
+    """Save ``figure`` as ``<stem>.png`` (150 dpi) and ``<stem>.pdf``; return the two paths.
+
+    Both files are cropped to the figure's tight bounding box, padded by
+    ``savefig.pad_inches``, as ``bbox_inches="tight"`` crops them. The layout engine
+    (constrained layout) runs once and the box is measured once, for both files: saved one
+    after the other with ``"tight"``, each save laid the figure out and measured it again.
+    """
     stem = Path(stem)
     stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [stem.with_suffix(".png"), stem.with_suffix(".pdf")]
-    for path in paths:
-        figure.savefig(path, dpi=150, bbox_inches="tight")
+    engine = figure.get_layout_engine()
+    canvas = FigureCanvasAgg(figure)
+    figure.draw_without_rendering()  # lays the figure out
+    box = figure.get_tightbbox(canvas.get_renderer()).padded(rcParams["savefig.pad_inches"])
+    figure.set_layout_engine("none")  # keep that layout for both files
+    try:
+        for path in paths:
+            figure.savefig(path, dpi=150, bbox_inches=box)
+    finally:
+        figure.set_layout_engine(engine)
     return paths
 
 
