@@ -9,7 +9,9 @@ both ways and compares each with the DEM verify's values (``results/verify.csv``
 a 5 % standard error on packings of their own, ``benchmarks/verify_dem_5pct.yaml``), with the
 t verify computes (:func:`pidpipe.loop.verify.t_combined`); the surrogate is read at the
 design's (mean) fill, and, third, at the whole-sphere fill the DEM case poured, as verify reads
-it. A table written before rows carried
+it. What it prints as z is that t itself, not the normal score of its tail probability under
+its degrees of freedom that verify logs: where a DEM case ended at a few cells (1 g), verify's z
+is the smaller. A table written before rows carried
 ``packing_loads`` gets them from the cases' records (:func:`pidpipe.design.records.record_loads`).
 
 Run, in a finished campaign's folder that ``snakemake verify`` ran in:
@@ -67,14 +69,14 @@ def main() -> None:
     verify = pd.read_csv("results/verify.csv")
     points = verify[verify["dem_status"].isin(["ok", "flagged"])].reset_index(drop=True)
     shared = SharedPackings.of(table)
-    z = {}
+    t = {}
     at_design = points.assign(fill_pct=points["design_fill_pct"])   # the design's mean fill
     for model, fitted, at in (("independent SEMs", table.drop(columns=LOADS_COLUMN), at_design),
                               ("packings' covariance", table, at_design),
                               ("packings' covariance, read at the poured fill", table, points)):
         surrogate = fit_surrogate(fitted, method="gp", allow_holes=True, source=name)
         predicted = surrogate_uncertainty(surrogate, at, draws=0, seed=0)
-        z[model] = t_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),
+        t[model] = t_combined(points["ceq_coupon_dem_ns_m"].to_numpy(dtype=float),
                               points["ceq_coupon_dem_sem_ns_m"].to_numpy(dtype=float),
                               predicted["ceq_coupon_surrogate_ns_m"].to_numpy(dtype=float),
                               predicted["surrogate_u_ns_m"].to_numpy(dtype=float))
@@ -87,7 +89,7 @@ def main() -> None:
              "| environment | GP noise | worst \\|z\\| (design, point) | median u / C |",
              "|---|---|---|---|"]
     for environment, rows in points.groupby("environment", sort=False):
-        for model, values in z.items():
+        for model, values in t.items():
             at = rows.index[np.argmax(np.abs(values[rows.index]))]
             lines.append(f"| {environment} | {model} | {abs(values[at]):.2f} "
                          f"({points.at[at, 'design']}, {points.at[at, 'point']}) | "
@@ -104,7 +106,7 @@ def main() -> None:
                 lines.append(f"| {lo:g}-{hi:g} | {int(inside.sum())} | {np.mean(r[inside]):.2f} | "
                              f"{np.mean(shared.correlation(d[inside])):.2f} |")
     lines.append("")
-    for model, values in z.items():
+    for model, values in t.items():
         lines.append(f"- {model}: RMS z {np.sqrt(np.mean(values**2)):.2f}, |z| > 2 at "
                      f"{int(np.sum(np.abs(values) > 2))} of {len(values)} points")
     record_text("Verify's z with and without the packings' covariance",
