@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from matplotlib import rcParams
+from matplotlib import rc_context, rcParams
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -45,7 +45,8 @@ def save_figure(figure: Figure, stem: str | Path) -> list[Path]:
     canvas = FigureCanvasAgg(figure)
     figure.draw_without_rendering()  # lays the figure out
     box = figure.get_tightbbox(canvas.get_renderer()).padded(rcParams["savefig.pad_inches"])
-    figure.set_layout_engine("none")  # keep that layout for both files
+    with rc_context({"figure.autolayout": False, "figure.constrained_layout.use": False}):
+        figure.set_layout_engine(None)  # no engine: each save renders this layout, no pre-draw
     try:
         for path in paths:
             figure.savefig(path, dpi=150, bbox_inches=box)
