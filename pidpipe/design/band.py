@@ -36,6 +36,7 @@ from pidpipe.design.optimisation import (
     environment_bounds,
     feasible_fill_range,
     forward_difference_jacobian,
+    latin_hypercube,
     make_design,
     run_starts,
     whole_cell_candidates,
@@ -272,8 +273,7 @@ def band_starting_fills(bounds: dict, budget: Budget, n_starts: int, seed: int) 
     r_lo, r_hi = feasible_fill_range(bounds, budget)
     if n_starts == 0:
         return np.empty(0)
-    from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
-    sample = qmc.LatinHypercube(d=1, rng=np.random.default_rng(seed)).random(n_starts)[:, 0]
+    sample = latin_hypercube(n_starts, 1, seed)[:, 0]
     return r_lo + sample * (r_hi - r_lo)
 
 

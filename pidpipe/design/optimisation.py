@@ -355,6 +355,18 @@ class _Problem:
         return dict(zip(VARIABLES, map(float, x)))
 
 
+def latin_hypercube(n: int, d: int, seed: int) -> np.ndarray:
+    """``n`` seeded Latin-hypercube points in the unit cube of ``d`` dimensions, shape (n, d).
+
+    The multistarts' sampler (``scipy.stats.qmc.LatinHypercube``). ``scipy.stats`` is
+    imported here, not with this module: its import costs a job more than a CPU-second, and
+    most jobs that import the optimiser's module sample nothing.
+    """
+    from scipy.stats import qmc
+
+    return qmc.LatinHypercube(d=d, rng=np.random.default_rng(seed)).random(n)
+
+
 def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_starts: int,
                     seed: int) -> np.ndarray:
     """Feasible starting points: a seeded Latin hypercube over (f, G, r).
@@ -370,8 +382,7 @@ def starting_points(bounds: dict[str, tuple[float, float]], budget: Budget, n_st
     r_lo, r_hi = feasible_fill_range(bounds, budget)
     if n_starts == 0:
         return np.empty((0, len(VARIABLES)))
-    from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
-    sample = qmc.LatinHypercube(d=3, rng=np.random.default_rng(seed)).random(n_starts)
+    sample = latin_hypercube(n_starts, 3, seed)
     f_lo, f_hi = np.log(bounds["freq_hz"][0]), np.log(bounds["freq_hz"][1])
     g_lo, g_hi = bounds["accel_g"]
     f = np.exp(f_lo + sample[:, 0] * (f_hi - f_lo))

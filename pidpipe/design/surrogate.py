@@ -122,7 +122,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy.interpolate import RBFInterpolator, make_interp_spline
-from scipy.special import ndtr, ndtri  # the normal's cdf and quantile: scipy.stats costs a job ~1.7 CPU-s to import
+# the normal's cdf and quantile, as scipy.stats' norm computes them, without importing scipy.stats
+from scipy.special import ndtr, ndtri
 
 from pidpipe.design.ceq_table import (
     COORDINATE_COLUMNS,

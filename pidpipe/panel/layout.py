@@ -42,6 +42,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from pidpipe.design.built_cells import split_spheres
+from pidpipe.design.optimisation import latin_hypercube
 from pidpipe.panel.loss import KINDS, AccelBand, Layout, ModalLoss, band_summary
 
 
@@ -236,8 +237,7 @@ def optimise_layout(loss: ModalLoss, predict, regions: Regions, band: AccelBand,
     x0s = [problem.pack(problem.antinode_first(r), np.full(problem.k, r), 1.0)
            for r in (mid, *(float(np.clip(f, problem.r_lo, problem.r_hi)) for f in antinode_fills))]
     if starts:
-        from scipy.stats import qmc  # here: scipy.stats costs a job ~1.7 CPU-s to import
-        sample = qmc.LatinHypercube(d=2 * problem.k, rng=np.random.default_rng(seed)).random(starts)
+        sample = latin_hypercube(starts, 2 * problem.k, seed)
         for row in sample:
             x, rho = row[:problem.k], row[problem.k:]
             r = problem.r_lo + rho * (problem.r_hi - problem.r_lo)
