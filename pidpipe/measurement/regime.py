@@ -9,7 +9,9 @@ Each cell's measured cycles give, from the windows of a :class:`~pidpipe.measure
   follows the floor at G = 1 is unloaded, below 2 % of its weight, for 6 % of the cycle);
 - **landings**: airborne windows followed by a loaded one, per cycle, and the phase of the first;
 - **lid contact**: a cycle touches the lid if the lid carries more than :data:`LID_FRACTION` of
-  the bed's weight in any window;
+  the bed's weight in any window; the **lid peak** is the largest lid force of any phase bin of
+  any cycle (the impacts' strength at the windows' resolution: a phase-mean over the cycles
+  smears impacts that come at scattered phases, and one impact can carry the whole cycle);
 - **expansion**: the mean over the cycle of the bed's height (highest minus lowest sphere centre)
   above its height at rest, in sphere diameters;
 - **alternation**: d1 and d2, the RMS difference of the flight between cycles one and two apart.
@@ -83,6 +85,9 @@ class CellMotionFeatures:
     n_cycles : int
     lift_off_cycles, lid_cycles : float
         Fraction of the cycles that lift off, that touch the lid.
+    lid_peak : float
+        Largest force on the lid in one phase bin of one cycle, in bed weights (0 if the lid is
+        never touched).
     flight : float
         Fraction of the cycle the bed is airborne, mean over the cycles.
     landings_per_cycle : float
@@ -99,6 +104,7 @@ class CellMotionFeatures:
     n_cycles: int
     lift_off_cycles: float
     lid_cycles: float
+    lid_peak: float
     flight: float
     landings_per_cycle: float
     landing_phase: float
@@ -127,7 +133,7 @@ def cell_features(floor_profile: np.ndarray, lid_profile: np.ndarray,
     n_cycles, bins = floor.shape
     nan = float("nan")
     if n_cycles == 0:
-        return CellMotionFeatures(0, nan, nan, nan, nan, nan, nan, nan, nan, nan)
+        return CellMotionFeatures(0, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
     # The windows in time order across the cycles, to find landings (airborne -> loaded).
     present = ~np.isnan(floor.reshape(-1))
     airborne = floor.reshape(-1)[present] < AIRBORNE_FRACTION
@@ -143,7 +149,8 @@ def cell_features(floor_profile: np.ndarray, lid_profile: np.ndarray,
         first.setdefault(int(cycle), (phase_bin + 0.5) / bins)
     phases = np.array(list(first.values()))
     landing_phase, landing_scatter = _circular_median(phases) if phases.size else (nan, nan)
-    lid_touch = np.nanmax(np.where(np.isnan(lid_profile), -np.inf, lid_profile), axis=1) > LID_FRACTION
+    lid_cycle_peak = np.nanmax(np.where(np.isnan(lid_profile), -np.inf, lid_profile), axis=1)
+    lid_touch = lid_cycle_peak > LID_FRACTION
     expansion = (np.nanmean(height_profile) - rest_height_m) / (2.0 * radius_m)
 
     def distance(lag: int) -> float:
@@ -151,7 +158,8 @@ def cell_features(floor_profile: np.ndarray, lid_profile: np.ndarray,
 
     return CellMotionFeatures(
         n_cycles=int(n_cycles), lift_off_cycles=float(np.mean(flight >= LIFT_OFF_FLIGHT)),
-        lid_cycles=float(np.mean(lid_touch)), flight=float(np.mean(flight)),
+        lid_cycles=float(np.mean(lid_touch)), lid_peak=float(max(lid_cycle_peak.max(), 0.0)),
+        flight=float(np.mean(flight)),
         landings_per_cycle=float(np.median(landings)), landing_phase=float(landing_phase),
         landing_scatter=float(landing_scatter), expansion_diameters=float(expansion),
         d1=distance(1), d2=distance(2))

@@ -82,6 +82,17 @@ def test_touching_the_lid_in_many_cycles_is_lid_impacts():
     result = regime_of(synthetic(lambda k: flight(2, 12), lid))
     assert result["regime"] == LID_IMPACTS
     assert result["cell_features"][0]["lid_cycles"] == pytest.approx(1 / 3, abs=0.05)
+    assert result["cell_features"][0]["lid_peak"] == 3.0
+
+
+def test_the_lid_peak_is_the_strongest_impact_of_any_cycle_and_zero_without_one():
+    # impacts of 2, 4, 6 weights in turn, at a phase that moves: the phase-mean peak is far lower
+    lid = lambda k: np.where(np.arange(WINDOWS) == 4 + k % 8, 2.0 * (1 + k % 3), 0.0)
+    motion = synthetic(lambda k: flight(2, 12), lid)
+    assert regime_of(motion)["cell_features"][0]["lid_peak"] == 6.0
+    profile = phase_profile(motion, first_cycle=2, bins=WINDOWS)
+    assert max(profile["lid_force_n"]["mean"]) / profile["bed_weight_n"] < 1.5
+    assert regime_of(synthetic(lambda k: flight(2, 12)))["cell_features"][0]["lid_peak"] == 0.0
 
 
 def test_a_bed_expanded_by_more_than_a_diameter_is_fluidised():
