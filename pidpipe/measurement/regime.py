@@ -38,7 +38,7 @@ The case's regime is the one most of its cells are in (ties go to the earlier re
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
@@ -133,7 +133,7 @@ def cell_features(floor_profile: np.ndarray, lid_profile: np.ndarray,
     n_cycles, bins = floor.shape
     nan = float("nan")
     if n_cycles == 0:
-        return CellMotionFeatures(0, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan)
+        return CellMotionFeatures(0, *[nan] * (len(fields(CellMotionFeatures)) - 1))
     # The windows in time order across the cycles, to find landings (airborne -> loaded).
     present = ~np.isnan(floor.reshape(-1))
     airborne = floor.reshape(-1)[present] < AIRBORNE_FRACTION
@@ -149,7 +149,7 @@ def cell_features(floor_profile: np.ndarray, lid_profile: np.ndarray,
         first.setdefault(int(cycle), (phase_bin + 0.5) / bins)
     phases = np.array(list(first.values()))
     landing_phase, landing_scatter = _circular_median(phases) if phases.size else (nan, nan)
-    lid_cycle_peak = np.nanmax(np.where(np.isnan(lid_profile), -np.inf, lid_profile), axis=1)
+    lid_cycle_peak = np.where(np.isnan(lid_profile), -np.inf, lid_profile).max(axis=1)
     lid_touch = lid_cycle_peak > LID_FRACTION
     expansion = (np.nanmean(height_profile) - rest_height_m) / (2.0 * radius_m)
 

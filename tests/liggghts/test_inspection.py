@@ -69,9 +69,9 @@ def test_a_nearly_full_cell_at_50_hz_and_10_g_hits_the_lid(tmp_path):
     """The lid is struck, not grazed: in some cycle it carries more than the bed's weight.
 
     The peak is each cycle's own (``lid_peak``), not the phase-mean profile's: impacts come at
-    scattered phases and skip cycles, so the profile's peak over 8 cycles is chaotic (0.98 to
-    15.3 bed weights for one packing with its centres moved by 1 nm, and below 1 for about one
-    pour seed in ten; ``benchmarks/experiments/lid_peak_pour.py``)."""
+    scattered phases and skip cycles, so the profile's peak over 8 cycles is chaotic (0 to 13.3
+    bed weights for one DEM packing with its centres moved by 1 nm, and below 1 for about one
+    pour seed in ten; ``benchmarks/experiments/lid_peak_pour.py --summarise``)."""
     cfg = _config(measured=8)
     packing = pour(PourSettings.from_config(cfg), 90, 0, tmp_path / "pour")
     record = run_case(ShakeSettings.from_config(cfg), CaseSpec(50, 10, 90), packing, tmp_path / "shake")
